@@ -1,0 +1,102 @@
+//! The `voxkit` command line: clap subcommands, and the one place where errors
+//! become exit codes.
+//!
+//! Exit codes: 0 success; 1 a check ran and found a problem; 2 bad input
+//! (unparsable arguments, malformed lines or files, limits exceeded).
+
+use std::io::Write;
+
+use clap::{Parser, Subcommand};
+
+mod demo;
+mod line;
+mod triangle;
+
+pub use demo::DemoArgs;
+pub use line::LineArgs;
+pub use triangle::TriangleArgs;
+
+/// Discrete 3D lines, voxelization and discrete ray casting.
+#[derive(Debug, Parser)]
+#[command(name = "voxkit", version, about)]
+pub struct Cli {
+    /// The subcommand.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// voxkit's subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Draw lines of every kind through a grid and print speed against error.
+    Demo(DemoArgs),
+    /// Voxelize 3D segments (`x0 y0 z0 x1 y1 z1`, grid space) and print one JSON
+    /// array of `[x,y,z]` voxels per segment.
+    Line(LineArgs),
+    /// Kahan–Kelsen indexing of the lattice points of a triangle.
+    Triangle(TriangleArgs),
+}
+
+/// A command-line failure: the message for stderr and the exit code.
+#[derive(Debug)]
+pub struct CliError {
+    /// One line for stderr.
+    pub message: String,
+    /// Process exit code.
+    pub code: i32,
+}
+
+impl CliError {
+    /// Bad input: exit code 2.
+    pub fn bad_input(message: impl Into<String>) -> Self {
+        CliError {
+            message: message.into(),
+            code: 2,
+        }
+    }
+}
+
+impl From<crate::VoxkitError> for CliError {
+    fn from(e: crate::VoxkitError) -> Self {
+        CliError::bad_input(e.to_string())
+    }
+}
+
+impl From<std::io::Error> for CliError {
+    fn from(e: std::io::Error) -> Self {
+        CliError::bad_input(format!("i/o error: {e}"))
+    }
+}
+
+/// Runs a parsed command, writing its output to `out`.
+pub fn run(cli: Cli, out: &mut dyn Write) -> Result<(), CliError> {
+    match cli.command {
+        Command::Demo(args) => demo::run(args, out),
+        Command::Line(args) => line::run(args, out),
+        Command::Triangle(args) => triangle::run(args, out),
+    }
+}
+
+/// Entry point of the binary: parses `std::env::args`, runs, and returns the
+/// process exit code.
+pub fn main() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return code;
+        }
+    };
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    let result = run(cli, &mut out).and_then(|()| out.flush().map_err(CliError::from));
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            let _ = out.flush();
+            eprintln!("voxkit: {}", e.message);
+            e.code
+        }
+    }
+}

@@ -1,0 +1,32 @@
+//! # voxkit
+//!
+//! Discrete 3D lines, voxelization and discrete ray casting, exact where the
+//! mathematics allows it.
+//!
+//! | module | what |
+//! |---|---|
+//! | [`grid`] | dense grid with pointer-offset stepping, bit grid, world↔grid frame |
+//! | [`fixed`] | fixed-point sub-voxel coordinates |
+//! | [`line`] | 3D lines (26, 18, tripod 6, Amanatides–Woo, adaptive) and 2D lines |
+//! | [`metric`] | the discrete distances d6, d18, d26 |
+//! | [`topology`] | oracles: connectivity, containment, touching |
+//! | [`triangle`] | Kahan–Kelsen triangle point indexing and 2D rasterization |
+//! | [`cli`] | the `voxkit` command line |
+//!
+//! Sources: D. Cohen-Or and A. Kaufman, *3D Line Voxelization and Connectivity
+//! Control*, IEEE CG&A 17(6), 1997; J. Amanatides and A. Woo, *A Fast Voxel
+//! Traversal Algorithm for Ray Tracing*, Eurographics 1987; W. Kahan and
+//! J. Kelsen (Kahan–Kelsen), constant-time indexing of the lattice points of
+//! a triangle; J. Pineda, *A Parallel Algorithm for Polygon Rasterization*,
+//! SIGGRAPH 1988.
+
+pub mod cli;
+pub mod error;
+pub mod fixed;
+pub mod grid;
+pub mod line;
+pub mod metric;
+pub mod topology;
+pub mod triangle;
+
+pub use error::{Result, VoxkitError};

@@ -1,0 +1,1 @@
+//! One integration test binary (one link under fat LTO); a module per concept.
