@@ -10,6 +10,7 @@
 //! | [`line`] | 3D lines (26, 18, tripod 6, Amanatides–Woo, adaptive) and 2D lines |
 //! | [`metric`] | the discrete distances d6, d18, d26 |
 //! | [`topology`] | oracles: connectivity, containment, touching |
+//! | [`io`] | atomic file writes (and, later, voxel file formats) |
 //! | [`triangle`] | Kahan–Kelsen triangle point indexing and 2D rasterization |
 //! | [`cli`] | the `voxkit` command line |
 //!
@@ -20,13 +21,17 @@
 //! a triangle; J. Pineda, *A Parallel Algorithm for Polygon Rasterization*,
 //! SIGGRAPH 1988.
 
+#![warn(missing_docs)]
+
 pub mod cli;
 pub mod error;
 pub mod fixed;
 pub mod grid;
+pub mod io;
 pub mod line;
 pub mod metric;
 pub mod topology;
 pub mod triangle;
 
 pub use error::{Result, VoxkitError};
+pub use metric::Connectivity;
