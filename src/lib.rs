@@ -32,6 +32,7 @@ pub mod line;
 pub mod metric;
 pub mod topology;
 pub mod triangle;
+pub mod voxelize;
 
 pub use error::{Result, VoxkitError};
 pub use metric::Connectivity;

@@ -1,0 +1,2 @@
+//! Mesh voxelization.
+pub mod surface;
