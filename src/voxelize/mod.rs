@@ -1,2 +1,3 @@
 //! Mesh voxelization.
+pub mod slab;
 pub mod surface;

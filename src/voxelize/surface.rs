@@ -28,6 +28,7 @@
 //! lattice origin so that all products fit `i64` for triangles spanning up to
 //! [`MAX_TRIANGLE_SPAN`] voxels; wider triangles take an `i128` path.
 
+use super::slab::{BRICK, BrickBits, SlabBricks};
 use crate::grid::Voxel;
 
 /// Fraction bits of the fixed-point vertices the surface kernels take
@@ -273,6 +274,147 @@ fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], emit: &mut impl FnMut(i64, i64
             }
         }
         j += I::ONE;
+    }
+}
+
+/// Which surface to build.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SurfaceMode {
+    /// 6-tunnel-free: the three axis families.
+    Thin,
+    /// 26-tunnel-free: the four body-diagonal families.
+    Thick,
+}
+
+impl SurfaceMode {
+    /// The lattice-line families this mode marks.
+    pub fn families(self) -> &'static [LineFamily] {
+        match self {
+            SurfaceMode::Thin => &THIN_FAMILIES,
+            SurfaceMode::Thick => &THICK_FAMILIES,
+        }
+    }
+}
+
+/// Voxelizes `triangles` (fixed-point grid coordinates, [`VOXEL_FRAC_BITS`])
+/// into a grid of `dims`, in parallel over z-slabs balanced by expected work.
+/// Voxels outside `0..dims` are dropped. Returns the occupied bricks (min
+/// corner, bits), each brick exactly once; the order is deterministic (by
+/// slab, then by first touch in triangle order) and independent of the number
+/// of threads.
+pub fn voxelize_surface(
+    triangles: &[FixedTriangle],
+    dims: [i32; 3],
+    mode: SurfaceMode,
+) -> Vec<([i32; 3], BrickBits)> {
+    use rayon::prelude::*;
+    let plan = SlabPlan::new(triangles, dims);
+    let families = mode.families();
+    let slabs: Vec<Vec<([i32; 3], BrickBits)>> = plan
+        .slabs
+        .par_iter()
+        .map(|slab| {
+            let mut bricks = SlabBricks::new(dims, slab.z0, slab.z1);
+            for &t in &slab.triangles {
+                let tri = &triangles[t as usize];
+                for &family in families {
+                    triangle_crossings(tri, family, &mut |v| bricks.set(v));
+                }
+            }
+            bricks.into_bricks()
+        })
+        .collect();
+    slabs.into_iter().flatten().collect()
+}
+
+/// A z-slab of the grid and the triangles that can reach it.
+struct Slab {
+    z0: i32,
+    z1: i32,
+    triangles: Vec<u32>,
+}
+
+/// Cuts the grid into z-slabs of whole bricks with about equal expected work.
+struct SlabPlan {
+    slabs: Vec<Slab>,
+}
+
+impl SlabPlan {
+    /// Slabs per thread: more than one so rayon can even out what the work
+    /// estimate misses.
+    const SLABS_PER_THREAD: usize = 4;
+
+    fn new(triangles: &[FixedTriangle], dims: [i32; 3]) -> Self {
+        let nz = dims[2].max(1);
+        // Voxel layers a triangle can write: every crossing voxel contains a
+        // point of the triangle, so it lies within ±1/2 of the z extent.
+        let z_range = |tri: &FixedTriangle| {
+            let lo = tri.iter().map(|p| p[2]).min().unwrap_or(0);
+            let hi = tri.iter().map(|p| p[2]).max().unwrap_or(0);
+            let lo = (lo - VOXEL_ONE / 2).div_euclid(VOXEL_ONE).clamp(0, nz as i64 - 1) as i32;
+            let hi = (hi + VOXEL_ONE / 2).div_euclid(VOXEL_ONE).clamp(0, nz as i64 - 1) as i32;
+            (lo, hi)
+        };
+        // Expected work: lattice points ≈ projected areas, plus a set-up cost.
+        let weight = |tri: &FixedTriangle| {
+            let s2 = (VOXEL_ONE * VOXEL_ONE) as f64;
+            let e1 = [0, 1, 2].map(|a| (tri[1][a] - tri[0][a]) as f64);
+            let e2 = [0, 1, 2].map(|a| (tri[2][a] - tri[0][a]) as f64);
+            let n = [
+                e1[1] * e2[2] - e1[2] * e2[1],
+                e1[2] * e2[0] - e1[0] * e2[2],
+                e1[0] * e2[1] - e1[1] * e2[0],
+            ];
+            (n[0].abs() + n[1].abs() + n[2].abs()) / (2.0 * s2) + 8.0
+        };
+        let mut per_layer = vec![0f64; nz as usize + 1];
+        for tri in triangles {
+            let (lo, hi) = z_range(tri);
+            let w = weight(tri) / (hi - lo + 1) as f64;
+            per_layer[lo as usize] += w;
+            per_layer[hi as usize + 1] -= w;
+        }
+        let mut acc = 0.0;
+        let layer_work: Vec<f64> = per_layer[..nz as usize]
+            .iter()
+            .map(|d| {
+                acc += d;
+                acc.max(0.0)
+            })
+            .collect();
+        let total: f64 = layer_work.iter().sum();
+        let n_bricks = (nz as usize).div_ceil(BRICK as usize);
+        let want = (rayon::current_num_threads() * Self::SLABS_PER_THREAD).clamp(1, n_bricks);
+        let mut cuts = vec![0i32];
+        let mut run = 0.0;
+        for bz in 0..n_bricks {
+            let (a, b) = (bz * BRICK as usize, ((bz + 1) * BRICK as usize).min(nz as usize));
+            run += layer_work[a..b].iter().sum::<f64>();
+            let target = total * cuts.len() as f64 / want as f64;
+            if run >= target && cuts.len() < want && b < nz as usize {
+                cuts.push(b as i32);
+            }
+        }
+        cuts.push(nz);
+        let mut slabs: Vec<Slab> = cuts
+            .windows(2)
+            .map(|w| Slab {
+                z0: w[0],
+                z1: w[1],
+                triangles: Vec::new(),
+            })
+            .collect();
+        for (t, tri) in triangles.iter().enumerate() {
+            let (lo, hi) = z_range(tri);
+            let first = cuts.partition_point(|&c| c <= lo) - 1;
+            for slab in &mut slabs[first..] {
+                if slab.z0 > hi {
+                    break;
+                }
+                slab.triangles.push(t as u32);
+            }
+        }
+        SlabPlan { slabs }
     }
 }
 

@@ -1,0 +1,105 @@
+//! Transient per-slab brick tables: where parallel surface voxelization
+//! writes.
+//!
+//! The grid is cut into z-slabs of whole bricks, balanced by the expected
+//! work of the triangles that reach them; each slab is filled by one task
+//! with no synchronisation, since slabs are disjoint. Inside a slab a dense
+//! table maps brick coordinates to slots in a brick arena, so setting a voxel
+//! is an index computation, a table load and an OR — no hashing. The table
+//! costs 4 bytes per 8³ brick of the slab's box (1/128 byte per voxel) and
+//! lives only while voxelizing; the arena grows with occupied bricks.
+
+use crate::grid::Voxel;
+
+/// Edge length of a brick in voxels.
+pub const BRICK: i32 = 8;
+
+/// One 8³ brick as 8 words: bit `x + 8·y` of word `z` is voxel `(x, y, z)`.
+pub type BrickBits = [u64; 8];
+
+/// The bricks of one z-slab `[z0, z1)` of a grid with `dims`.
+pub struct SlabBricks {
+    dims: [i32; 3],
+    z0: i32,
+    z1: i32,
+    /// Bricks per axis in this slab.
+    nb: [usize; 3],
+    /// Brick slot + 1, or 0 when the brick is empty.
+    table: Vec<u32>,
+    /// Brick coordinate and bits, in order of first touch.
+    bricks: Vec<([i32; 3], BrickBits)>,
+}
+
+impl SlabBricks {
+    /// An empty slab covering voxel layers `z0..z1` (multiples of [`BRICK`],
+    /// except that `z1` may be the grid's end).
+    pub fn new(dims: [i32; 3], z0: i32, z1: i32) -> Self {
+        let nb = [
+            (dims[0] as usize).div_ceil(BRICK as usize),
+            (dims[1] as usize).div_ceil(BRICK as usize),
+            ((z1 - z0) as usize).div_ceil(BRICK as usize),
+        ];
+        SlabBricks {
+            dims,
+            z0,
+            z1,
+            nb,
+            table: vec![0; nb[0] * nb[1] * nb[2]],
+            bricks: Vec::new(),
+        }
+    }
+
+    /// Bytes this slab holds.
+    pub fn heap_bytes(&self) -> usize {
+        self.table.len() * 4 + self.bricks.capacity() * std::mem::size_of::<([i32; 3], BrickBits)>()
+    }
+
+    /// Sets voxel `v` if it lies in this slab and in the grid; others are
+    /// ignored (they belong to another slab, or to the outside).
+    #[inline(always)]
+    pub fn set(&mut self, v: Voxel) {
+        let inside = v.x >= 0 && v.y >= 0 && v.z >= self.z0 && v.x < self.dims[0] && v.y < self.dims[1] && v.z < self.z1;
+        if !inside {
+            return;
+        }
+        let (x, y, z) = (v.x, v.y, v.z - self.z0);
+        let (bx, by, bz) = ((x / BRICK) as usize, (y / BRICK) as usize, (z / BRICK) as usize);
+        let cell = bx + self.nb[0] * (by + self.nb[1] * bz);
+        // The table index is in range: 0 ≤ x < dims[0] ≤ nb[0]·BRICK, etc.
+        let mut slot = self.table[cell];
+        if slot == 0 {
+            self.bricks.push((
+                [bx as i32 * BRICK, by as i32 * BRICK, bz as i32 * BRICK + self.z0],
+                [0; 8],
+            ));
+            slot = self.bricks.len() as u32;
+            self.table[cell] = slot;
+        }
+        let bits = &mut self.bricks[slot as usize - 1].1;
+        bits[(z % BRICK) as usize] |= 1u64 << ((x % BRICK) + BRICK * (y % BRICK));
+    }
+
+    /// Whether voxel `v` is set.
+    pub fn get(&self, v: Voxel) -> bool {
+        let inside = v.x >= 0 && v.y >= 0 && v.z >= self.z0 && v.x < self.dims[0] && v.y < self.dims[1] && v.z < self.z1;
+        if !inside {
+            return false;
+        }
+        let (x, y, z) = (v.x, v.y, v.z - self.z0);
+        let cell = (x / BRICK) as usize + self.nb[0] * ((y / BRICK) as usize + self.nb[1] * (z / BRICK) as usize);
+        match self.table[cell] {
+            0 => false,
+            slot => self.bricks[slot as usize - 1].1[(z % BRICK) as usize] >> ((x % BRICK) + BRICK * (y % BRICK)) & 1 != 0,
+        }
+    }
+
+    /// The occupied bricks: min-corner voxel and bits.
+    pub fn into_bricks(self) -> Vec<([i32; 3], BrickBits)> {
+        self.bricks
+    }
+
+    /// The occupied bricks, borrowed.
+    pub fn bricks(&self) -> &[([i32; 3], BrickBits)] {
+        &self.bricks
+    }
+}
