@@ -179,9 +179,8 @@ proptest! {
             out.push(c);
             prop_assert!(lo >= 1 && hi.is_some_and(|h| h >= 1));
             let rest = it.size_hint();
-            prop_assert!(rest.0 <= hi.unwrap() - 1 && rest.1.unwrap() <= hi.unwrap() - 1);
+            prop_assert!(rest.0 < hi.unwrap() && rest.1.unwrap() < hi.unwrap());
         }
-        drop(it);
         match switch_at {
             None => prop_assert_eq!(&out, &eight),
             Some(s) => {
