@@ -437,10 +437,10 @@ fn clip_to_grid(start: &AwStepper, dims: [usize; 3]) -> Option<(u64, u64, AwStep
 }
 
 /// The shared walk loop: visits `count` cells starting at `state` (linear
-/// index `index`), moving the index by the per-axis neighbour offsets.
+/// index `index`), moving the index by `offsets[axis]` per step.
 #[inline(always)]
 fn walk_cells<F>(
-    axis_stride: [isize; 3],
+    offsets: [isize; 3],
     mut state: AwStepper,
     count: u64,
     mut index: usize,
@@ -449,7 +449,6 @@ fn walk_cells<F>(
 where
     F: FnMut(usize) -> ControlFlow<()>,
 {
-    let offsets: [isize; 3] = std::array::from_fn(|i| axis_stride[i] * state.sign[i] as isize);
     let mut visited = 0;
     loop {
         visited += 1;
@@ -470,6 +469,17 @@ where
         state.advance(axis);
         index = index.wrapping_add_signed(offsets[axis]);
     }
+}
+
+/// The grid's precomputed neighbour offsets for one step along each axis in
+/// the traversal's direction.
+fn step_offsets<T>(grid: &DenseGrid<T>, state: &AwStepper) -> [isize; 3] {
+    let [sx, sy, sz] = state.sign.map(|s| s as i32);
+    [
+        grid.neighbour_offset(sx, 0, 0),
+        grid.neighbour_offset(0, sy, 0),
+        grid.neighbour_offset(0, 0, sz),
+    ]
 }
 
 /// Prepares a walk: the clipped run and the linear index of its first voxel.
@@ -529,8 +539,8 @@ where
             stopped_at: None,
         });
     };
-    let strides = grid.strides();
-    Ok(walk_cells(strides, state, count, index, |i| {
+    let offsets = step_offsets(grid, &state);
+    Ok(walk_cells(offsets, state, count, index, |i| {
         visit(&mut grid[i])
     }))
 }
@@ -561,8 +571,8 @@ where
             stopped_at: None,
         });
     };
-    let strides = grid.strides();
-    Ok(walk_cells(strides, state, count, index, |i| {
+    let offsets = step_offsets(grid, &state);
+    Ok(walk_cells(offsets, state, count, index, |i| {
         visit(&grid[i])
     }))
 }
