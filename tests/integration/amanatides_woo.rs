@@ -225,7 +225,8 @@ proptest! {
 
 #[test]
 fn regression_long_diagonal_terminates_and_starts_right() {
-    // Incremental A–W once looped or skipped the start voxel on this ray.
+    // From the brief: naive A–W (accumulated tMax, open-ended loop) hangs or
+    // skips the start voxel on this ray.
     let a = [-41.75, -21.25, 4.8125];
     let b = [25.25, -4.0, -49.0];
     let fa = voxkit::fixed::point_to_fixed(a).unwrap();
