@@ -1,1 +1,4 @@
 //! One integration test binary (one link under fat LTO); a module per concept.
+mod bricks;
+mod formats;
+mod mesh_io;
