@@ -170,6 +170,18 @@ impl Collect<'_> {
         }
         let b = base as u32;
         let ix = &indices;
+        let group = match prim.mode() {
+            Mode::Triangles => 3,
+            Mode::Lines => 2,
+            _ => 1,
+        };
+        if !ix.len().is_multiple_of(group) {
+            return Err(VoxkitError::invalid(format!(
+                "{what}: {} indices is not a multiple of {group} for mode {:?}",
+                ix.len(),
+                prim.mode()
+            )));
+        }
         match prim.mode() {
             Mode::Triangles => self
                 .triangles

@@ -439,6 +439,12 @@ fn bad_gltf_files_give_typed_errors() {
         "{msg}"
     );
     assert!(msg.contains("is 7") && msg.contains("4 vertices"), "{msg}");
+    // A triangle list whose index count is not a multiple of 3.
+    let p = write(
+        "ragged.gltf",
+        tiny_gltf(&SQUARE, &[0, 1, 2, 3], 4, "").as_bytes(),
+    );
+    assert!(invalid_msg(Mesh::load(&p)).contains("not a multiple of 3"));
     // NaN coordinate.
     let nan = [[0., 0., 0.], [1., f32::NAN, 0.], [0., 1., 0.]];
     let p = write("nan.gltf", tiny_gltf(&nan, &[0, 1, 2], 4, "").as_bytes());
