@@ -10,7 +10,8 @@
 //! | [`line`] | 3D lines (26, 18, tripod 6, Amanatides–Woo, adaptive) and 2D lines |
 //! | [`metric`] | the discrete distances d6, d18, d26 |
 //! | [`topology`] | oracles: connectivity, containment, touching |
-//! | [`io`] | atomic file writes (and, later, voxel file formats) |
+//! | [`io`] | atomic file writes; voxel files: binvox, MagicaVoxel .vox, .npy, NRRD |
+//! | [`mesh`] | triangle meshes + polylines; OBJ and glTF 2.0 loaders; grid fitting |
 //! | [`triangle`] | Kahan–Kelsen triangle point indexing and 2D rasterization |
 //! | [`cli`] | the `voxkit` command line |
 //!
@@ -29,6 +30,7 @@ pub mod fixed;
 pub mod grid;
 pub mod io;
 pub mod line;
+pub mod mesh;
 pub mod metric;
 pub mod topology;
 pub mod triangle;

@@ -15,10 +15,12 @@
 //! no 3D→1D recomputation per voxel.
 
 mod bits;
+pub mod brick;
 mod dense;
 mod frame;
 
 pub use bits::BitGrid;
+pub use brick::BrickGrid;
 pub use dense::DenseGrid;
 pub use frame::GridFrame;
 

@@ -2,6 +2,14 @@
 //! bytes land in a temporary file beside the target, which is renamed over
 //! the target only once complete, so a failure never leaves a partial file.
 
+pub mod binvox;
+pub mod npy;
+pub mod nrrd;
+pub mod vox;
+mod voxels;
+
+pub use voxels::{VoxelFormat, read_voxels, write_voxels, write_voxels_limited};
+
 use std::fs;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};

@@ -1,5 +1,8 @@
 //! One integration test binary (one link under fat LTO); a module per concept.
 
 mod amanatides_woo;
+mod bricks;
+mod formats;
 mod line2d;
+mod mesh_io;
 mod topology;

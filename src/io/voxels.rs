@@ -1,0 +1,194 @@
+//! Voxel files by extension: [`write_voxels`] / [`read_voxels`] dispatch to
+//! [`super::binvox`], [`super::vox`], [`super::npy`] and [`super::nrrd`].
+//!
+//! Writers take a sparse [`BrickGrid`] plus its [`GridFrame`]; every set voxel
+//! must lie in `0..frame.dims`. The streaming writers (binvox, NRRD) never
+//! build the whole dense grid: they fill one slab of 8 layers at a time from
+//! the bricks of that slab. Readers return a [`BrickGrid`] and the frame the
+//! file records (see each format for what it can record).
+
+use std::path::Path;
+
+use crate::error::{Result, VoxkitError};
+use crate::grid::brick::{BRICK_EDGE, BrickMask};
+use crate::grid::{BrickGrid, Dims, GridFrame, MemoryLimit, Voxel};
+
+/// A voxel file format, chosen by extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VoxelFormat {
+    /// `.binvox` ([`super::binvox`]).
+    Binvox,
+    /// MagicaVoxel `.vox` ([`super::vox`]).
+    Vox,
+    /// NumPy `.npy` ([`super::npy`]).
+    Npy,
+    /// `.nrrd` ([`super::nrrd`]).
+    Nrrd,
+}
+
+impl VoxelFormat {
+    /// The format for `path`'s extension (case-insensitive), or
+    /// [`VoxkitError::Unsupported`].
+    pub fn from_path(path: &Path) -> Result<Self> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        Ok(match ext.as_str() {
+            "binvox" => VoxelFormat::Binvox,
+            "vox" => VoxelFormat::Vox,
+            "npy" => VoxelFormat::Npy,
+            "nrrd" => VoxelFormat::Nrrd,
+            _ => {
+                return Err(VoxkitError::Unsupported(format!(
+                    "{}: unknown voxel format (expected .binvox, .vox, .npy or .nrrd)",
+                    path.display()
+                )));
+            }
+        })
+    }
+}
+
+/// Writes `grid` in `frame` to `path`, the format chosen by extension,
+/// atomically (see [`super::atomic_write`]); an existing file is replaced
+/// only if `overwrite`. Dense buffers are capped by [`MemoryLimit::DEFAULT`].
+///
+/// ```
+/// use glam::{DVec3, IVec3};
+/// use voxkit::grid::{BrickGrid, GridFrame, MemoryLimit};
+/// use voxkit::io::{read_voxels, write_voxels};
+/// let dir = std::env::temp_dir().join(format!("voxkit-doc-vox-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// let grid: BrickGrid = [IVec3::new(1, 2, 3), IVec3::new(0, 0, 0)].into_iter().collect();
+/// let frame = GridFrame::new(DVec3::new(-1.0, 0.5, 2.0), 0.25, [4, 5, 6]);
+/// for ext in ["binvox", "vox", "npy", "nrrd"] {
+///     let path = dir.join(format!("g.{ext}"));
+///     write_voxels(&path, &grid, &frame, true).unwrap();
+///     let (back, _frame) = read_voxels(&path, MemoryLimit::DEFAULT).unwrap();
+///     assert_eq!(back, grid);
+/// }
+/// std::fs::remove_dir_all(&dir).unwrap();
+/// ```
+pub fn write_voxels(
+    path: &Path,
+    grid: &BrickGrid,
+    frame: &GridFrame,
+    overwrite: bool,
+) -> Result<()> {
+    write_voxels_limited(path, grid, frame, overwrite, MemoryLimit::DEFAULT)
+}
+
+/// As [`write_voxels`] with an explicit cap on the writer's buffers.
+pub fn write_voxels_limited(
+    path: &Path,
+    grid: &BrickGrid,
+    frame: &GridFrame,
+    overwrite: bool,
+    limit: MemoryLimit,
+) -> Result<()> {
+    let format = VoxelFormat::from_path(path)?;
+    check_frame(frame)?;
+    grid.check_inside(frame.dims)?;
+    super::atomic_write(path, overwrite, |w| match format {
+        VoxelFormat::Binvox => super::binvox::write(w, grid, frame, limit),
+        VoxelFormat::Vox => super::vox::write(w, grid, frame),
+        VoxelFormat::Npy => super::npy::write(w, grid, frame, limit),
+        VoxelFormat::Nrrd => super::nrrd::write(w, grid, frame, limit),
+    })
+}
+
+/// Reads a voxel file (format by extension). `limit` caps what the reader
+/// allocates (checked from the header, before allocating). Errors name the
+/// file.
+pub fn read_voxels(path: &Path, limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)> {
+    let format = VoxelFormat::from_path(path)?;
+    let io_err = |source| VoxkitError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let len = std::fs::metadata(path).map_err(io_err)?.len();
+    limit.check(&format!("reading {}", path.display()), len as u128, 1)?;
+    let bytes = std::fs::read(path).map_err(io_err)?;
+    let result = match format {
+        VoxelFormat::Binvox => super::binvox::read(&bytes, limit),
+        VoxelFormat::Vox => super::vox::read(&bytes, limit),
+        VoxelFormat::Npy => super::npy::read(&bytes, limit),
+        VoxelFormat::Nrrd => super::nrrd::read(&bytes, limit),
+    };
+    result.map_err(|e| match e {
+        VoxkitError::Invalid(m) => VoxkitError::Invalid(format!("{}: {m}", path.display())),
+        VoxkitError::Unsupported(m) => VoxkitError::Unsupported(format!("{}: {m}", path.display())),
+        other => other,
+    })
+}
+
+/// A frame a writer can record: finite origin, finite positive voxel size,
+/// positive extents that fit `i32`.
+pub(crate) fn check_frame(frame: &GridFrame) -> Result<()> {
+    if !(frame.origin.is_finite() && frame.voxel_size.is_finite() && frame.voxel_size > 0.0) {
+        return Err(VoxkitError::invalid(format!(
+            "grid frame needs a finite origin and a positive voxel size, got {} and {}",
+            frame.origin, frame.voxel_size
+        )));
+    }
+    if frame.dims.iter().any(|&d| d == 0 || d > i32::MAX as usize) {
+        return Err(VoxkitError::invalid(format!(
+            "grid dimensions {:?} must be in 1..=2^31-1",
+            frame.dims
+        )));
+    }
+    Ok(())
+}
+
+/// Streams the grid box `0..dims` as 0/1 bytes in the order
+/// `order = [slow, mid, fast]` (axis numbers), in slabs of up to 8 layers
+/// along `slow`: `emit` gets each slab's bytes (`layers * n_mid * n_fast`,
+/// slow-major). Every voxel must lie inside `dims` (checked by the caller).
+pub(crate) fn for_each_slab(
+    grid: &BrickGrid,
+    dims: Dims,
+    order: [usize; 3],
+    limit: MemoryLimit,
+    mut emit: impl FnMut(&[u8]) -> Result<()>,
+) -> Result<()> {
+    let [slow, mid, fast] = order;
+    let (n_mid, n_fast) = (dims[mid], dims[fast]);
+    let plane = n_mid * n_fast;
+    limit.check("slab buffer", 8 * plane as u128, 1)?;
+    let mut by_slab: Vec<(Voxel, BrickMask)> = grid.bricks().map(|(k, m)| (k, *m)).collect();
+    by_slab.sort_unstable_by_key(|(k, _)| k[slow]);
+    let mut buf = vec![0u8; 8 * plane];
+    let mut next = 0;
+    let n_slabs = dims[slow].div_ceil(8);
+    for s in 0..n_slabs {
+        let layers = (dims[slow] - 8 * s).min(8);
+        let slab = &mut buf[..layers * plane];
+        slab.fill(0);
+        while next < by_slab.len() && by_slab[next].0[slow] as usize == s {
+            let (k, m) = &by_slab[next];
+            let base = *k * BRICK_EDGE;
+            for (z, &word) in m.iter().enumerate() {
+                let mut bits = word;
+                while bits != 0 {
+                    let b = bits.trailing_zeros() as i32;
+                    bits &= bits - 1;
+                    let v = base + Voxel::new(b & 7, b >> 3, z as i32);
+                    let i = (v[slow] as usize - 8 * s) * plane
+                        + v[mid] as usize * n_fast
+                        + v[fast] as usize;
+                    slab[i] = 1;
+                }
+            }
+            next += 1;
+        }
+        emit(slab)?;
+    }
+    Ok(())
+}
+
+/// A reader-side cap: a sparse result covering `dims` needs at most one
+/// brick (~96 bytes with its map entry) per 8³ block of the box.
+pub(crate) fn check_sparse_budget(dims: Dims, limit: MemoryLimit, what: &str) -> Result<()> {
+    let bricks: u128 = dims.iter().map(|&d| (d as u128).div_ceil(8)).product();
+    limit.check(what, bricks, 96)
+}

@@ -1,0 +1,264 @@
+//! glTF 2.0 input (`.gltf` with external or data-URI buffers, and `.glb`)
+//! via the `gltf` crate.
+//!
+//! Reads every primitive of the default scene (scene 0 when none is marked
+//! default), walking the node tree recursively and applying node transforms
+//! (TRS composed in f64) to the vertices, so an instanced mesh contributes
+//! one copy per node. Buffers are loaded (data URIs, external `.bin`, the GLB
+//! binary chunk); images are never decoded.
+//!
+//! Primitive modes: `TRIANGLES` as is; `TRIANGLE_STRIP` and `TRIANGLE_FAN`
+//! converted to triangles; `LINES`, `LINE_STRIP`, `LINE_LOOP` become
+//! polylines; `POINTS` are skipped and counted. Accessors are checked against
+//! their buffer views and buffers before they are read (a truncated `.bin`
+//! is an error, not a panic); sparse accessors are not supported.
+
+use std::path::Path;
+
+use glam::{DMat4, DQuat, DVec3};
+use gltf::mesh::Mode;
+
+use super::{LoadSummary, Mesh};
+use crate::error::{Result, VoxkitError};
+
+/// Loads a `.gltf` or `.glb` file. See the module docs.
+pub fn load(path: &Path) -> Result<Mesh> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| VoxkitError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let gltf = gltf::Gltf::from_slice(&bytes)
+        .map_err(|e| VoxkitError::invalid(format!("{name}: glTF: {e}")))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
+        .map_err(|e| VoxkitError::invalid(format!("{name}: glTF buffers: {e}")))?;
+    let doc = &gltf.document;
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| VoxkitError::invalid(format!("{name}: the file has no scene")))?;
+
+    let mut acc = Collect {
+        name: &name,
+        buffers: &buffers,
+        positions: Vec::new(),
+        triangles: Vec::new(),
+        polylines: Vec::new(),
+        summary: LoadSummary::default(),
+        max_depth: doc.nodes().len(),
+    };
+    for node in scene.nodes() {
+        acc.node(&node, DMat4::IDENTITY, 0)?;
+    }
+    let Collect {
+        positions,
+        triangles,
+        polylines,
+        mut summary,
+        ..
+    } = acc;
+    Mesh::from_parts_with(&name, positions, triangles, polylines, &mut summary)
+}
+
+struct Collect<'a> {
+    name: &'a str,
+    buffers: &'a [gltf::buffer::Data],
+    positions: Vec<DVec3>,
+    triangles: Vec<[u32; 3]>,
+    polylines: Vec<Vec<u32>>,
+    summary: LoadSummary,
+    /// A tree cannot be deeper than it has nodes: deeper means a cycle.
+    max_depth: usize,
+}
+
+/// A node's local transform in f64.
+fn local_matrix(node: &gltf::Node) -> DMat4 {
+    match node.transform() {
+        gltf::scene::Transform::Matrix { matrix } => {
+            DMat4::from_cols_array_2d(&matrix.map(|c| c.map(f64::from)))
+        }
+        gltf::scene::Transform::Decomposed {
+            translation,
+            rotation,
+            scale,
+        } => DMat4::from_scale_rotation_translation(
+            DVec3::from_array(scale.map(f64::from)),
+            DQuat::from_array(rotation.map(f64::from)).normalize(),
+            DVec3::from_array(translation.map(f64::from)),
+        ),
+    }
+}
+
+impl Collect<'_> {
+    fn node(&mut self, node: &gltf::Node, parent: DMat4, depth: usize) -> Result<()> {
+        if depth > self.max_depth {
+            return Err(VoxkitError::invalid(format!(
+                "{}: node {} is part of a cycle in the node hierarchy",
+                self.name,
+                node.index()
+            )));
+        }
+        let world = parent * local_matrix(node);
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                self.primitive(&prim, &world, mesh.index(), node.index())?;
+            }
+        }
+        for child in node.children() {
+            self.node(&child, world, depth + 1)?;
+        }
+        Ok(())
+    }
+
+    fn primitive(
+        &mut self,
+        prim: &gltf::Primitive,
+        world: &DMat4,
+        mesh: usize,
+        node: usize,
+    ) -> Result<()> {
+        let what = format!(
+            "{}: mesh {mesh} primitive {} (node {node})",
+            self.name,
+            prim.index()
+        );
+        let pos_acc = prim
+            .get(&gltf::Semantic::Positions)
+            .ok_or_else(|| VoxkitError::invalid(format!("{what}: no POSITION attribute")))?;
+        if pos_acc.data_type() != gltf::accessor::DataType::F32
+            || pos_acc.dimensions() != gltf::accessor::Dimensions::Vec3
+        {
+            return Err(VoxkitError::invalid(format!(
+                "{what}: POSITION must be float VEC3"
+            )));
+        }
+        check_accessor(&pos_acc, self.buffers, &what)?;
+        let idx_acc = prim.indices();
+        if let Some(a) = &idx_acc {
+            use gltf::accessor::DataType::*;
+            if !matches!(a.data_type(), U8 | U16 | U32)
+                || a.dimensions() != gltf::accessor::Dimensions::Scalar
+            {
+                return Err(VoxkitError::invalid(format!(
+                    "{what}: indices must be unsigned integer scalars"
+                )));
+            }
+            check_accessor(a, self.buffers, &what)?;
+        }
+        let reader = prim.reader(|b| self.buffers.get(b.index()).map(|d| &d.0[..]));
+        let local: Vec<DVec3> = reader
+            .read_positions()
+            .ok_or_else(|| VoxkitError::invalid(format!("{what}: unreadable POSITION")))?
+            .map(|p| world.transform_point3(DVec3::from_array(p.map(f64::from))))
+            .collect();
+        let n = local.len();
+        let indices: Vec<u32> = match reader.read_indices() {
+            Some(ix) => ix.into_u32().collect(),
+            None => (0..n as u32).collect(),
+        };
+        if let Some((k, &i)) = indices.iter().enumerate().find(|&(_, &i)| i as usize >= n) {
+            return Err(VoxkitError::invalid(format!(
+                "{what}: index {k} is {i}, but the primitive has {n} vertices"
+            )));
+        }
+        let base = self.positions.len();
+        if base + n > u32::MAX as usize {
+            return Err(VoxkitError::Unsupported(format!(
+                "{what}: more than 2^32 - 1 vertices in total"
+            )));
+        }
+        let b = base as u32;
+        let ix = &indices;
+        let group = match prim.mode() {
+            Mode::Triangles => 3,
+            Mode::Lines => 2,
+            _ => 1,
+        };
+        if !ix.len().is_multiple_of(group) {
+            return Err(VoxkitError::invalid(format!(
+                "{what}: {} indices is not a multiple of {group} for mode {:?}",
+                ix.len(),
+                prim.mode()
+            )));
+        }
+        match prim.mode() {
+            Mode::Triangles => self
+                .triangles
+                .extend(ix.chunks_exact(3).map(|c| [c[0] + b, c[1] + b, c[2] + b])),
+            Mode::TriangleStrip => {
+                for k in 0..ix.len().saturating_sub(2) {
+                    // Alternate the winding as the spec does.
+                    let t = if k % 2 == 0 {
+                        [ix[k], ix[k + 1], ix[k + 2]]
+                    } else {
+                        [ix[k + 1], ix[k], ix[k + 2]]
+                    };
+                    self.triangles.push(t.map(|i| i + b));
+                }
+            }
+            Mode::TriangleFan => {
+                for k in 1..ix.len().saturating_sub(1) {
+                    self.triangles.push([ix[0] + b, ix[k] + b, ix[k + 1] + b]);
+                }
+            }
+            Mode::Lines => self
+                .polylines
+                .extend(ix.chunks_exact(2).map(|c| vec![c[0] + b, c[1] + b])),
+            Mode::LineStrip => self.polylines.push(ix.iter().map(|i| i + b).collect()),
+            Mode::LineLoop => {
+                let mut l: Vec<u32> = ix.iter().map(|i| i + b).collect();
+                if let Some(&first) = l.first() {
+                    l.push(first);
+                }
+                self.polylines.push(l);
+            }
+            Mode::Points => {
+                self.summary.skipped_points += ix.len();
+                return Ok(());
+            }
+        }
+        self.positions.extend(local);
+        Ok(())
+    }
+}
+
+/// Checks that every byte an accessor reads lies inside its view and buffer.
+fn check_accessor(a: &gltf::Accessor, buffers: &[gltf::buffer::Data], what: &str) -> Result<()> {
+    let err = |msg: String| VoxkitError::invalid(format!("{what}: accessor {}: {msg}", a.index()));
+    if a.sparse().is_some() {
+        return Err(VoxkitError::Unsupported(format!(
+            "{what}: accessor {} is sparse",
+            a.index()
+        )));
+    }
+    let view = a
+        .view()
+        .ok_or_else(|| err("has no buffer view".to_string()))?;
+    let data = buffers
+        .get(view.buffer().index())
+        .ok_or_else(|| err(format!("buffer {} is missing", view.buffer().index())))?;
+    let view_end = view.offset() as u128 + view.length() as u128;
+    if view_end > data.len() as u128 {
+        return Err(err(format!(
+            "buffer view {} ends at byte {view_end}, past the {} bytes of buffer {}",
+            view.index(),
+            data.len(),
+            view.buffer().index()
+        )));
+    }
+    let size = a.size() as u128;
+    let stride = view.stride().map_or(size, |s| s as u128);
+    if a.count() > 0 {
+        let last = a.offset() as u128 + (a.count() as u128 - 1) * stride + size;
+        if last > view.length() as u128 {
+            return Err(err(format!(
+                "{} elements need {last} bytes, buffer view {} has {}",
+                a.count(),
+                view.index(),
+                view.length()
+            )));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,288 @@
+//! Triangle meshes and polylines as the voxelizer takes them, with loaders for
+//! Wavefront OBJ ([`obj`]) and glTF 2.0 ([`gltf`]), validation, bounds and
+//! the `-r N` grid fitting rule.
+//!
+//! Every loader ends in [`Mesh::from_parts`], which is where validation lives:
+//! non-finite coordinates and out-of-range indices are errors naming the file
+//! and the element; degenerate triangles (a repeated index, or an exactly zero
+//! cross product in f64) are dropped and counted in [`LoadSummary`]; a mesh
+//! with nothing left is an error.
+//!
+//! # Fitting (`-r N`)
+//! [`fit_frame`] makes the longest side of the bounding box span exactly `N`
+//! voxels (`h = longest / N`), the other sides `ceil(side / h)` voxels (at
+//! least 1), with the grid origin at the bounding box's min corner. A vertex
+//! on the *min* face maps to grid coordinate `-0.5`, which the voxel rule
+//! `floor(p + 0.5)` puts in voxel 0. A vertex on the *max* face maps to
+//! `dims - 0.5`, which that rule would put in voxel `dims`, one past the grid:
+//! **the fitted grid box is closed at its max faces**, i.e. such a vertex is
+//! kept in voxel `dims - 1`. [`fitted_voxel`] applies this rule (it clamps the
+//! voxel index into `0..dims`, which only ever moves points on, or within
+//! rounding of, the max face). With `padding > 0` ([`fit_frame_padded`]) the
+//! rule is not needed: voxel `dims - padding` lies inside the grid.
+
+pub mod gltf;
+pub mod obj;
+
+use std::path::Path;
+
+use glam::DVec3;
+
+use crate::error::{Result, VoxkitError};
+use crate::grid::{GridFrame, Voxel};
+
+/// What a loader read and what it dropped.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LoadSummary {
+    /// Vertices in [`Mesh::positions`].
+    pub vertices: usize,
+    /// Triangles kept in [`Mesh::triangles`].
+    pub triangles: usize,
+    /// Polylines kept in [`Mesh::polylines`].
+    pub polylines: usize,
+    /// Segments over all kept polylines.
+    pub polyline_segments: usize,
+    /// Triangles dropped as degenerate (a repeated index, or zero area in f64).
+    pub degenerate_triangles: usize,
+    /// Polylines dropped because they had fewer than two vertices.
+    pub degenerate_polylines: usize,
+    /// Elements skipped because voxelization has no use for them (OBJ `p`
+    /// records, glTF `POINTS` primitives): counted points.
+    pub skipped_points: usize,
+}
+
+/// A triangle mesh plus polylines in f64 world coordinates.
+///
+/// Invariants (established by [`Mesh::from_parts`], which every loader uses):
+/// every coordinate is finite, every index is `< positions.len()`, no
+/// triangle is degenerate, every polyline has at least two vertices, and the
+/// mesh has at least one triangle or polyline.
+///
+/// ```
+/// use glam::DVec3;
+/// use voxkit::mesh::Mesh;
+/// let m = Mesh::from_parts(
+///     "tri",
+///     vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::ONE],
+///     vec![[0, 1, 2], [0, 0, 1]], // the second is degenerate
+///     vec![vec![2, 3]],
+/// ).unwrap();
+/// assert_eq!(m.triangles.len(), 1);
+/// assert_eq!(m.summary.degenerate_triangles, 1);
+/// assert_eq!(m.bounds(), (DVec3::ZERO, DVec3::ONE));
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mesh {
+    /// Vertex positions in world coordinates.
+    pub positions: Vec<DVec3>,
+    /// Triangles as indices into `positions`.
+    pub triangles: Vec<[u32; 3]>,
+    /// Polylines (open; a closed loop repeats its first index at the end) as
+    /// indices into `positions`.
+    pub polylines: Vec<Vec<u32>>,
+    /// Counts of what was loaded and skipped.
+    pub summary: LoadSummary,
+}
+
+impl Mesh {
+    /// Builds a validated mesh. `name` (usually the file path) prefixes every
+    /// error message. Degenerate triangles and polylines with fewer than two
+    /// vertices are dropped and counted; non-finite coordinates, indices out
+    /// of range and an empty result are [`VoxkitError::Invalid`].
+    pub fn from_parts(
+        name: &str,
+        positions: Vec<DVec3>,
+        triangles: Vec<[u32; 3]>,
+        polylines: Vec<Vec<u32>>,
+    ) -> Result<Mesh> {
+        let mut summary = LoadSummary::default();
+        Self::from_parts_with(name, positions, triangles, polylines, &mut summary)
+    }
+
+    /// As [`Mesh::from_parts`], starting from a summary that a loader has
+    /// partly filled (e.g. with skipped points).
+    pub(crate) fn from_parts_with(
+        name: &str,
+        positions: Vec<DVec3>,
+        mut triangles: Vec<[u32; 3]>,
+        mut polylines: Vec<Vec<u32>>,
+        summary: &mut LoadSummary,
+    ) -> Result<Mesh> {
+        if positions.len() > u32::MAX as usize {
+            return Err(VoxkitError::Unsupported(format!(
+                "{name}: {} vertices; at most 2^32 - 1 are supported",
+                positions.len()
+            )));
+        }
+        if let Some((i, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+            return Err(VoxkitError::invalid(format!(
+                "{name}: vertex {i} has a non-finite coordinate ({}, {}, {})",
+                p.x, p.y, p.z
+            )));
+        }
+        let n = positions.len();
+        for (t, tri) in triangles.iter().enumerate() {
+            if let Some(&i) = tri.iter().find(|&&i| i as usize >= n) {
+                return Err(VoxkitError::invalid(format!(
+                    "{name}: triangle {t} uses vertex index {i}, but there are {n} vertices"
+                )));
+            }
+        }
+        for (l, line) in polylines.iter().enumerate() {
+            if let Some(&i) = line.iter().find(|&&i| i as usize >= n) {
+                return Err(VoxkitError::invalid(format!(
+                    "{name}: polyline {l} uses vertex index {i}, but there are {n} vertices"
+                )));
+            }
+        }
+        let before = triangles.len();
+        triangles.retain(|t| !is_degenerate(&positions, t));
+        summary.degenerate_triangles += before - triangles.len();
+        let before = polylines.len();
+        polylines.retain(|l| l.len() >= 2);
+        summary.degenerate_polylines += before - polylines.len();
+        if triangles.is_empty() && polylines.is_empty() {
+            return Err(VoxkitError::invalid(format!(
+                "{name}: empty mesh (no non-degenerate triangle and no polyline)"
+            )));
+        }
+        summary.vertices = n;
+        summary.triangles = triangles.len();
+        summary.polylines = polylines.len();
+        summary.polyline_segments = polylines.iter().map(|l| l.len() - 1).sum();
+        Ok(Mesh {
+            positions,
+            triangles,
+            polylines,
+            summary: summary.clone(),
+        })
+    }
+
+    /// Loads a mesh, choosing the loader by extension: `.obj` ([`obj::load`]),
+    /// `.gltf` / `.glb` ([`gltf::load`]).
+    pub fn load(path: &Path) -> Result<Mesh> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        match ext.as_str() {
+            "obj" => obj::load(path),
+            "gltf" | "glb" => gltf::load(path),
+            _ => Err(VoxkitError::Unsupported(format!(
+                "{}: unknown mesh format (expected .obj, .gltf or .glb)",
+                path.display()
+            ))),
+        }
+    }
+
+    /// Axis-aligned bounds `(min, max)` of the vertices that triangles and
+    /// polylines use (unused vertices do not count).
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        let mut add = |i: u32| {
+            let p = self.positions[i as usize];
+            lo = lo.min(p);
+            hi = hi.max(p);
+        };
+        for t in &self.triangles {
+            t.iter().for_each(|&i| add(i));
+        }
+        for l in &self.polylines {
+            l.iter().for_each(|&i| add(i));
+        }
+        (lo, hi)
+    }
+
+    /// The three corners of triangle `t`.
+    #[inline]
+    pub fn triangle(&self, t: usize) -> [DVec3; 3] {
+        self.triangles[t].map(|i| self.positions[i as usize])
+    }
+}
+
+/// A repeated index, or an exactly zero cross product of the edge vectors in
+/// f64.
+fn is_degenerate(p: &[DVec3], t: &[u32; 3]) -> bool {
+    if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+        return true;
+    }
+    let [a, b, c] = t.map(|i| p[i as usize]);
+    (b - a).cross(c - a) == DVec3::ZERO
+}
+
+/// The grid frame for `-r resolution` over the box `bounds = (min, max)`:
+/// see the module docs for the rule. Equivalent to
+/// [`fit_frame_padded`]`(bounds, resolution, 0)`.
+///
+/// ```
+/// use glam::DVec3;
+/// let f = voxkit::mesh::fit_frame((DVec3::ZERO, DVec3::new(2.0, 1.0, 0.3)), 10).unwrap();
+/// assert_eq!(f.voxel_size, 0.2);
+/// assert_eq!(f.dims, [10, 5, 2]);
+/// assert_eq!(f.origin, DVec3::ZERO);
+/// // A vertex on the max x face is kept in voxel 9, not 10.
+/// let g = f.world_to_grid(DVec3::new(2.0, 1.0, 0.3));
+/// assert_eq!(voxkit::mesh::fitted_voxel(&f, g).to_array(), [9, 4, 1]);
+/// ```
+pub fn fit_frame(bounds: (DVec3, DVec3), resolution: u32) -> Result<GridFrame> {
+    fit_frame_padded(bounds, resolution, 0)
+}
+
+/// As [`fit_frame`], with `padding` empty voxels added on every side (the
+/// origin moves down by `padding * h`, each extent grows by `2 * padding`).
+pub fn fit_frame_padded(
+    bounds: (DVec3, DVec3),
+    resolution: u32,
+    padding: u32,
+) -> Result<GridFrame> {
+    let (lo, hi) = bounds;
+    if !lo.is_finite() || !hi.is_finite() || hi.cmplt(lo).any() {
+        return Err(VoxkitError::invalid(format!(
+            "cannot fit a grid to bounds {lo}..{hi}"
+        )));
+    }
+    if resolution == 0 {
+        return Err(VoxkitError::invalid("resolution must be at least 1"));
+    }
+    let ext = hi - lo;
+    let longest = ext.max_element();
+    if longest <= 0.0 {
+        return Err(VoxkitError::invalid(format!(
+            "cannot fit a grid to a single point {lo}: the bounding box has no extent"
+        )));
+    }
+    let n = resolution as f64;
+    let h = longest / n;
+    let axis = ext
+        .to_array()
+        .iter()
+        .position(|&e| e == longest)
+        .unwrap_or(0);
+    let mut dims = [0usize; 3];
+    for a in 0..3 {
+        dims[a] = if a == axis {
+            resolution as usize
+        } else {
+            // `ext / longest * n` rather than `ext / h`: it cannot exceed `n`
+            // by rounding, and an exact multiple stays exact.
+            ((ext[a] / longest * n).ceil() as usize).clamp(1, resolution as usize)
+        };
+        dims[a] += 2 * padding as usize;
+    }
+    let origin = lo - DVec3::splat(padding as f64 * h);
+    Ok(GridFrame::new(origin, h, dims))
+}
+
+/// The voxel of grid-space point `g` in a fitted frame: `floor(g + 0.5)`,
+/// clamped into `0..dims` so that points on the max faces of the grid box are
+/// kept in the last voxel (the fitted box is closed; see the module docs).
+#[inline]
+pub fn fitted_voxel(frame: &GridFrame, g: DVec3) -> Voxel {
+    let v = (g + DVec3::splat(0.5)).floor();
+    Voxel::new(
+        (v.x as i64).clamp(0, frame.dims[0] as i64 - 1) as i32,
+        (v.y as i64).clamp(0, frame.dims[1] as i64 - 1) as i32,
+        (v.z as i64).clamp(0, frame.dims[2] as i64 - 1) as i32,
+    )
+}
