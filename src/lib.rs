@@ -12,6 +12,7 @@
 //! | [`topology`] | oracles: connectivity, containment, touching |
 //! | [`io`] | atomic file writes (and, later, voxel file formats) |
 //! | [`triangle`] | Kahan–Kelsen triangle point indexing and 2D rasterization |
+//! | [`voxelize`] | mesh voxelization and its exact references (conservative, solid) |
 //! | [`cli`] | the `voxkit` command line |
 //!
 //! Sources: D. Cohen-Or and A. Kaufman, *3D Line Voxelization and Connectivity
@@ -32,6 +33,7 @@ pub mod line;
 pub mod metric;
 pub mod topology;
 pub mod triangle;
+pub mod voxelize;
 
 pub use error::{Result, VoxkitError};
 pub use metric::Connectivity;

@@ -1,1 +1,5 @@
 //! One integration test binary (one link under fat LTO); a module per concept.
+
+mod conservative;
+mod solid;
+mod tunnels;
