@@ -389,13 +389,16 @@ pub fn tunnel_path(
     for z in 0..nz {
         for y in 0..ny {
             for x in 0..nx {
-                let on_border = x == 0 || y == 0 || z == 0 || x + 1 == nx || y + 1 == ny || z + 1 == nz;
+                let on_border =
+                    x == 0 || y == 0 || z == 0 || x + 1 == nx || y + 1 == ny || z + 1 == nz;
                 let v = Voxel::new(x as i32, y as i32, z as i32);
-                if let (true, Some(i)) = (on_border, occ.linear_index(v)) {
-                    if !occ.get_index(i) && from[i] == UNSEEN {
-                        from[i] = ROOT;
-                        queue.push_back(v);
-                    }
+                if on_border
+                    && let Some(i) = occ.linear_index(v)
+                    && !occ.get_index(i)
+                    && from[i] == UNSEEN
+                {
+                    from[i] = ROOT;
+                    queue.push_back(v);
                 }
             }
         }
@@ -418,11 +421,12 @@ pub fn tunnel_path(
         }
         for (m, &d) in moves.iter().enumerate() {
             let w = v + d;
-            if let Some(j) = occ.linear_index(w) {
-                if !occ.get_index(j) && from[j] == UNSEEN {
-                    from[j] = m as u8;
-                    queue.push_back(w);
-                }
+            if let Some(j) = occ.linear_index(w)
+                && !occ.get_index(j)
+                && from[j] == UNSEEN
+            {
+                from[j] = m as u8;
+                queue.push_back(w);
             }
         }
     }

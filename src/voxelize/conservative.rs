@@ -157,11 +157,7 @@ impl TriangleBoxTest {
             lo[a] = voxel_lo(mn) as i32;
             hi[a] = voxel_hi(mx) as i32;
         }
-        let base = [
-            lo[0] as i64 * ONE,
-            lo[1] as i64 * ONE,
-            lo[2] as i64 * ONE,
-        ];
+        let base = [lo[0] as i64 * ONE, lo[1] as i64 * ONE, lo[2] as i64 * ONE];
         let p = [sub(tri[0], base), sub(tri[1], base), sub(tri[2], base)];
         let e = [sub(p[1], p[0]), sub(p[2], p[1]), sub(p[0], p[2])];
         let (e0, e1) = (e[0], e[1]);
@@ -187,11 +183,7 @@ impl TriangleBoxTest {
         let mut slot = 0;
         for ei in e {
             // x̂ × e, ŷ × e, ẑ × e
-            for a in [
-                [0, -ei[2], ei[1]],
-                [ei[2], 0, -ei[0]],
-                [-ei[1], ei[0], 0],
-            ] {
+            for a in [[0, -ei[2], ei[1]], [ei[2], 0, -ei[0]], [-ei[1], ei[0], 0]] {
                 let pr = [dot_i(a, p[0]), dot_i(a, p[1]), dot_i(a, p[2])];
                 let pmin = pr[0].min(pr[1]).min(pr[2]);
                 let pmax = pr[0].max(pr[1]).max(pr[2]);
@@ -225,10 +217,8 @@ impl TriangleBoxTest {
     #[inline]
     pub fn meets(&self, v: Voxel) -> bool {
         let v = v.to_array();
-        for a in 0..3 {
-            if v[a] < self.lo[a] || v[a] > self.hi[a] {
-                return false; // box-normal axes
-            }
+        if (0..3).any(|a| v[a] < self.lo[a] || v[a] > self.hi[a]) {
+            return false; // box-normal axes
         }
         // Voxel centre relative to lo; in the bbox so |c| ≤ extent + ONE.
         let c = [
@@ -318,7 +308,13 @@ fn clip_axis(poly: &[DVec3], axis: usize, lo: f64, hi: f64) -> Vec<DVec3> {
 
 /// Candidate voxels of one z-slab (a superset of the meeting ones), filtered
 /// by the exact test.
-fn slab_voxels(test: &TriangleBoxTest, tri: &[DVec3; 3], margin: f64, k: i32, out: &mut Vec<Voxel>) {
+fn slab_voxels(
+    test: &TriangleBoxTest,
+    tri: &[DVec3; 3],
+    margin: f64,
+    k: i32,
+    out: &mut Vec<Voxel>,
+) {
     let (lo, hi) = (test.lo, test.hi);
     let zc = (k - lo[2]) as f64;
     let slab = clip_axis(tri, 2, zc - 0.5 - margin, zc + 0.5 + margin);
@@ -327,7 +323,9 @@ fn slab_voxels(test: &TriangleBoxTest, tri: &[DVec3; 3], margin: f64, k: i32, ou
     }
     let (ymin, ymax) = slab
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.y), b.max(p.y)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.y), b.max(p.y))
+        });
     let j0 = ((ymin - margin - 0.5).ceil() as i64 + lo[1] as i64).max(lo[1] as i64) as i32;
     let j1 = ((ymax + margin + 0.5).floor() as i64 + lo[1] as i64).min(hi[1] as i64) as i32;
     for j in j0..=j1 {
@@ -338,7 +336,9 @@ fn slab_voxels(test: &TriangleBoxTest, tri: &[DVec3; 3], margin: f64, k: i32, ou
         }
         let (xmin, xmax) = row
             .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.x), b.max(p.x)));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                (a.min(p.x), b.max(p.x))
+            });
         let i0 = ((xmin - margin - 0.5).ceil() as i64 + lo[0] as i64).max(lo[0] as i64) as i32;
         let i1 = ((xmax + margin + 0.5).floor() as i64 + lo[0] as i64).min(hi[0] as i64) as i32;
         for i in i0..=i1 {
@@ -380,7 +380,13 @@ impl Iterator for ConservativeVoxels {
             }
             self.buf.clear();
             self.pos = 0;
-            slab_voxels(&self.test, &self.tri, self.margin, self.next_k as i32, &mut self.buf);
+            slab_voxels(
+                &self.test,
+                &self.tri,
+                self.margin,
+                self.next_k as i32,
+                &mut self.buf,
+            );
             self.next_k += 1;
         }
     }
@@ -438,7 +444,11 @@ pub fn sort_dedup_voxels(v: &mut Vec<Voxel>) {
 /// assert_eq!(conservative_reference(&tris).unwrap().len(), 1);
 /// ```
 pub fn conservative_reference(tris: &[FixedTriangle]) -> Result<Vec<Voxel>> {
-    if let Some((i, _)) = tris.iter().enumerate().find(|(_, t)| check_range(t).is_err()) {
+    if let Some((i, _)) = tris
+        .iter()
+        .enumerate()
+        .find(|(_, t)| check_range(t).is_err())
+    {
         return Err(VoxkitError::invalid(format!(
             "triangle {i}: coordinate outside ±2^30 voxels"
         )));

@@ -45,7 +45,11 @@ impl IndexedMesh {
                 vertices.push(
                     center
                         + radius
-                            * DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()),
+                            * DVec3::new(
+                                theta.sin() * phi.cos(),
+                                theta.sin() * phi.sin(),
+                                theta.cos(),
+                            ),
                 );
             }
         }
@@ -124,7 +128,11 @@ impl IndexedMesh {
     /// The mesh rotated by `rotation` about the grid origin, then moved by `offset`.
     pub fn transformed(&self, rotation: DQuat, offset: DVec3) -> Self {
         IndexedMesh {
-            vertices: self.vertices.iter().map(|&v| rotation * v + offset).collect(),
+            vertices: self
+                .vertices
+                .iter()
+                .map(|&v| rotation * v + offset)
+                .collect(),
             faces: self.faces.clone(),
         }
     }

@@ -83,8 +83,7 @@ impl Axis {
 pub fn winding_number(point: DVec3, mesh: &[FixedTriangle]) -> f64 {
     let mut total = 0.0;
     for t in mesh {
-        let [a, b, c] =
-            t.map(|p| DVec3::new(to_f64(p[0]), to_f64(p[1]), to_f64(p[2])) - point);
+        let [a, b, c] = t.map(|p| DVec3::new(to_f64(p[0]), to_f64(p[1]), to_f64(p[2])) - point);
         let (la, lb, lc) = (a.length(), b.length(), c.length());
         let num = a.dot(b.cross(c));
         let den = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
@@ -149,7 +148,8 @@ fn triangle_crossings(t: &FixedTriangle, axis: usize, dims: Dims, out: &mut Vec<
     let p = t.map(|v| [v[u], v[w]]);
     let d = t.map(|v| v[axis]);
     let cross = |a: [i64; 2], b: [i64; 2], q: [i64; 2]| {
-        (b[0] - a[0]) as i128 * (q[1] - a[1]) as i128 - (b[1] - a[1]) as i128 * (q[0] - a[0]) as i128
+        (b[0] - a[0]) as i128 * (q[1] - a[1]) as i128
+            - (b[1] - a[1]) as i128 * (q[0] - a[0]) as i128
     };
     let area = cross(p[0], p[1], p[2]);
     if area == 0 {

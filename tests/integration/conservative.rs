@@ -23,7 +23,13 @@ fn oracle_meets(tri: &FixedTriangle, v: IVec3) -> bool {
     let c = [v.x as i64 * ONE, v.y as i64 * ONE, v.z as i64 * ONE];
     let p: Vec<[i128; 3]> = tri
         .iter()
-        .map(|q| [(q[0] - c[0]) as i128, (q[1] - c[1]) as i128, (q[2] - c[2]) as i128])
+        .map(|q| {
+            [
+                (q[0] - c[0]) as i128,
+                (q[1] - c[1]) as i128,
+                (q[2] - c[2]) as i128,
+            ]
+        })
         .collect();
     let e1: Vec<i128> = (0..3).map(|a| p[1][a] - p[0][a]).collect();
     let e2: Vec<i128> = (0..3).map(|a| p[2][a] - p[0][a]).collect();
@@ -138,11 +144,18 @@ fn random_triangle(rng: &mut ChaCha8Rng, kind: u32) -> FixedTriangle {
         6 => {
             let lat = if rng.random_bool(0.5) { 2 } else { 0 };
             let a = pt(rng, lat);
-            if rng.random_bool(0.5) { [a, a, a] } else { [a, pt(rng, 2), a] }
+            if rng.random_bool(0.5) {
+                [a, a, a]
+            } else {
+                [a, pt(rng, 2), a]
+            }
         }
         // Edge along a voxel edge line (two coordinates on face planes).
         _ => {
-            let (ya, za) = (rng.random_range(-2..2) * ONE + HALF, rng.random_range(-2..2) * ONE + HALF);
+            let (ya, za) = (
+                rng.random_range(-2..2) * ONE + HALF,
+                rng.random_range(-2..2) * ONE + HALF,
+            );
             let (x0, x1) = (coord(rng, 0, spread, 0), coord(rng, 0, spread, 0));
             [[x0, ya, za], [x1, ya, za], pt(rng, 0)]
         }
@@ -207,16 +220,20 @@ fn huge_triangles_use_exact_wide_arithmetic() {
     let mut rng = ChaCha8Rng::seed_from_u64(4242);
     let span = 1i64 << 39; // 2^19 voxels
     for case in 0..60 {
-        let tri: FixedTriangle = std::array::from_fn(|_| {
-            std::array::from_fn(|_| rng.random_range(-span..span))
-        });
+        let tri: FixedTriangle =
+            std::array::from_fn(|_| std::array::from_fn(|_| rng.random_range(-span..span)));
         let test = TriangleBoxTest::new(&tri).unwrap();
         // Points on the triangle (exact barycentric mixes), then voxels around them.
         for _ in 0..20 {
             let (a, b) = (rng.random_range(0..=1000i64), rng.random_range(0..=1000i64));
-            let (a, b) = if a + b > 1000 { (1000 - a, 1000 - b) } else { (a, b) };
+            let (a, b) = if a + b > 1000 {
+                (1000 - a, 1000 - b)
+            } else {
+                (a, b)
+            };
             let p: [i64; 3] = std::array::from_fn(|k| {
-                tri[0][k] + ((tri[1][k] - tri[0][k]) as i128 * a as i128 / 1000) as i64
+                tri[0][k]
+                    + ((tri[1][k] - tri[0][k]) as i128 * a as i128 / 1000) as i64
                     + ((tri[2][k] - tri[0][k]) as i128 * b as i128 / 1000) as i64
             });
             let v0 = IVec3::from_array(p.map(|c| voxkit::fixed::voxel_of(c) as i32));
@@ -240,7 +257,10 @@ fn hand_picked_touching_cases() {
     let tri = [[0, 0, h], [4 * ONE, 0, h], [0, 4 * ONE, h]];
     let v: Vec<IVec3> = conservative_voxels(&tri).unwrap().collect();
     assert!(v.iter().any(|p| p.z == 0) && v.iter().any(|p| p.z == 1));
-    assert_eq!(v.iter().filter(|p| p.z == 0).count(), v.iter().filter(|p| p.z == 1).count());
+    assert_eq!(
+        v.iter().filter(|p| p.z == 0).count(),
+        v.iter().filter(|p| p.z == 1).count()
+    );
     // A vertex exactly on a voxel corner: all 8 voxels around it.
     let corner = [h, h, h];
     let tri = [corner, [h + 1, h, h], [h, h + 1, h]];
@@ -270,12 +290,19 @@ fn reference_is_the_union_and_deterministic() {
     let tris: Vec<FixedTriangle> = (0..3000u32)
         .map(|c| {
             let t = random_triangle(&mut rng, c);
-            let d = [rng.random_range(-20..20), rng.random_range(-20..20), rng.random_range(-20..20)];
+            let d = [
+                rng.random_range(-20..20),
+                rng.random_range(-20..20),
+                rng.random_range(-20..20),
+            ];
             translate(t, d.map(|x: i64| x * ONE))
         })
         .collect();
     let got = conservative_reference(&tris).unwrap();
-    let mut want: Vec<IVec3> = tris.iter().flat_map(|t| conservative_voxels(t).unwrap()).collect();
+    let mut want: Vec<IVec3> = tris
+        .iter()
+        .flat_map(|t| conservative_voxels(t).unwrap())
+        .collect();
     want = sorted(want);
     want.dedup();
     assert_eq!(got, want);
@@ -285,7 +312,10 @@ fn reference_is_the_union_and_deterministic() {
         .unwrap()
         .install(|| conservative_reference(&tris).unwrap());
     assert_eq!(got, single);
-    assert!(got.windows(2).all(|w| (w[0].z, w[0].y, w[0].x) < (w[1].z, w[1].y, w[1].x)));
+    assert!(
+        got.windows(2)
+            .all(|w| (w[0].z, w[0].y, w[0].x) < (w[1].z, w[1].y, w[1].x))
+    );
     assert!(conservative_reference(&[]).unwrap().is_empty());
 }
 

@@ -94,9 +94,15 @@ fn closed_meshes() -> Vec<(String, Vec<FixedTriangle>)> {
         let (name, m) = match k {
             0 | 3 => ("sphere", IndexedMesh::uv_sphere(DVec3::ZERO, 8.7, 10, 16)),
             1 | 4 => ("torus", IndexedMesh::torus(DVec3::ZERO, 7.5, 2.9, 22, 10)),
-            _ => ("box", IndexedMesh::cuboid(DVec3::splat(-6.2), DVec3::new(5.1, 4.4, 6.9))),
+            _ => (
+                "box",
+                IndexedMesh::cuboid(DVec3::splat(-6.2), DVec3::new(5.1, 4.4, 6.9)),
+            ),
         };
-        out.push((format!("{name}{k}"), m.transformed(rot, off).to_fixed_triangles().unwrap()));
+        out.push((
+            format!("{name}{k}"),
+            m.transformed(rot, off).to_fixed_triangles().unwrap(),
+        ));
     }
     // Faces through centres, edges and corners on centres.
     let aligned = IndexedMesh::cuboid(DVec3::splat(4.0), DVec3::new(15.0, 12.0, 18.0));
@@ -116,7 +122,10 @@ fn parity_equals_winding_number_off_the_surface() {
             let par = solid_voxels_parity_axis(&mesh, DIMS, axis, MemoryLimit::DEFAULT).unwrap();
             for v in differing(&par, &wind) {
                 let d = distance_to_mesh(v.as_dvec3(), &mesh);
-                assert!(d < NEAR, "{name} {axis:?}: centre {v} at distance {d} disagrees");
+                assert!(
+                    d < NEAR,
+                    "{name} {axis:?}: centre {v} at distance {d} disagrees"
+                );
                 near_total += 1;
             }
         }
@@ -141,7 +150,10 @@ fn winding_numbers_are_integers_off_the_surface() {
             continue;
         }
         let w = winding_number(p, mesh);
-        assert!((w - w.round()).abs() < 1e-9 && (w.round() == 0.0 || w.round() == 1.0), "{w}");
+        assert!(
+            (w - w.round()).abs() < 1e-9 && (w.round() == 0.0 || w.round() == 1.0),
+            "{w}"
+        );
     }
     assert_eq!(WINDING_THRESHOLD, 0.5);
 }
@@ -207,7 +219,10 @@ fn clipping_and_determinism() {
         .build()
         .unwrap()
         .install(|| solid_voxels_voting(mesh, DIMS, MemoryLimit::DEFAULT).unwrap());
-    assert_eq!(single, solid_voxels_voting(mesh, DIMS, MemoryLimit::DEFAULT).unwrap());
+    assert_eq!(
+        single,
+        solid_voxels_voting(mesh, DIMS, MemoryLimit::DEFAULT).unwrap()
+    );
     // A grid over the limit is refused before allocating.
     assert!(solid_voxels_parity(mesh, [1 << 12; 3], MemoryLimit::new(1 << 20)).is_err());
     // A triangle spanning 2^20 voxels is unsupported, not wrong.

@@ -16,7 +16,11 @@ use voxkit::voxelize::conservative::conservative_reference;
 use voxkit::voxelize::shapes::{IndexedMesh, random_rotation};
 use voxkit::voxelize::solid::{interior_seeds, solid_voxels_parity};
 
-const ALL: [Connectivity; 3] = [Connectivity::Six, Connectivity::Eighteen, Connectivity::TwentySix];
+const ALL: [Connectivity; 3] = [
+    Connectivity::Six,
+    Connectivity::Eighteen,
+    Connectivity::TwentySix,
+];
 const SIX: Connectivity = Connectivity::Six;
 const C26: Connectivity = Connectivity::TwentySix;
 
@@ -43,7 +47,10 @@ fn assert_valid_path(g: &BitGrid, conn: Connectivity, seeds: &[IVec3], path: &[I
     let on_border = (0..3).any(|a| first[a] == 0 || first[a] as usize + 1 == n[a]);
     assert!(on_border, "path starts inside: {first}");
     assert!(seeds.contains(path.last().unwrap()));
-    assert!(path.iter().all(|&v| g.linear_index(v).is_some() && !g.get(v)));
+    assert!(
+        path.iter()
+            .all(|&v| g.linear_index(v).is_some() && !g.get(v))
+    );
     assert!(path.windows(2).all(|w| adjacent(w[0], w[1], conn)));
 }
 
@@ -67,16 +74,24 @@ fn sphere_band_one_voxel_hole_is_a_six_tunnel() {
     assert!(!v.tunnel, "{v:?}");
     assert!(v.inside_empty > 2000 && v.outside_empty > 5000);
     let total_empty = g.len() as u64 - g.count_ones();
-    assert_eq!(v.outside_empty + v.inside_empty + v.unreached_empty, total_empty);
+    assert_eq!(
+        v.outside_empty + v.inside_empty + v.unreached_empty,
+        total_empty
+    );
     // On the axis only (c + R, c, c) is in the band: removing it opens a 6-path.
     let hole = IVec3::new(c + r, c, c);
     assert!(g.get(hole) && !g.get(hole - IVec3::X) && !g.get(hole + IVec3::X));
     g.set(hole, false);
     for conn in ALL {
         let v = closed_surface_tunnels(&g, conn, &seeds).unwrap();
-        assert!(v.tunnel && v.first_inside_reached == Some(seeds[0]), "{conn:?}");
+        assert!(
+            v.tunnel && v.first_inside_reached == Some(seeds[0]),
+            "{conn:?}"
+        );
         assert_eq!(v.inside_empty, 0);
-        let path = tunnel_path(&g, conn, &seeds, MemoryLimit::DEFAULT).unwrap().unwrap();
+        let path = tunnel_path(&g, conn, &seeds, MemoryLimit::DEFAULT)
+            .unwrap()
+            .unwrap();
         assert_valid_path(&g, conn, &seeds, &path);
         if conn == SIX {
             // The band was 6-tight: every 6-tunnel goes through the hole.
@@ -95,7 +110,11 @@ fn thick_sphere_band_has_no_26_tunnel() {
     for conn in ALL {
         let v = closed_surface_tunnels(&g, conn, &seeds).unwrap();
         assert!(!v.tunnel, "{conn:?}");
-        assert!(tunnel_path(&g, conn, &seeds, MemoryLimit::DEFAULT).unwrap().is_none());
+        assert!(
+            tunnel_path(&g, conn, &seeds, MemoryLimit::DEFAULT)
+                .unwrap()
+                .is_none()
+        );
     }
 }
 
@@ -124,10 +143,16 @@ fn dent_is_26_leaky_but_6_tight() {
     assert!(v18.tunnel);
     let v26 = closed_surface_tunnels(&g, C26, &seeds).unwrap();
     assert!(v26.tunnel && v26.first_inside_reached == Some(seeds[0]));
-    let path = tunnel_path(&g, C26, &seeds, MemoryLimit::DEFAULT).unwrap().unwrap();
+    let path = tunnel_path(&g, C26, &seeds, MemoryLimit::DEFAULT)
+        .unwrap()
+        .unwrap();
     assert_valid_path(&g, C26, &seeds, &path);
     assert!(path.contains(&IVec3::new(10, 5, 5)));
-    assert!(tunnel_path(&g, SIX, &seeds, MemoryLimit::DEFAULT).unwrap().is_none());
+    assert!(
+        tunnel_path(&g, SIX, &seeds, MemoryLimit::DEFAULT)
+            .unwrap()
+            .is_none()
+    );
     // Components: 6 sees outside and inside apart; 26 joins them.
     assert_eq!(count_empty_components(&g, SIX).unwrap(), 2);
     assert_eq!(count_empty_components(&g, C26).unwrap(), 1);
@@ -143,14 +168,19 @@ fn surface_touching_the_grid_border() {
     for conn in ALL {
         let v = closed_surface_tunnels(&g, conn, &seeds).unwrap();
         assert!(!v.tunnel);
-        assert_eq!((v.outside_empty, v.inside_empty, v.unreached_empty), (0, 343, 0));
+        assert_eq!(
+            (v.outside_empty, v.inside_empty, v.unreached_empty),
+            (0, 343, 0)
+        );
     }
     g.set(IVec3::new(0, 3, 6), false);
     for conn in ALL {
         let v = closed_surface_tunnels(&g, conn, &seeds).unwrap();
         assert!(v.tunnel, "{conn:?}");
         assert_eq!(v.outside_empty, 344);
-        let path = tunnel_path(&g, conn, &seeds, MemoryLimit::DEFAULT).unwrap().unwrap();
+        let path = tunnel_path(&g, conn, &seeds, MemoryLimit::DEFAULT)
+            .unwrap()
+            .unwrap();
         assert_valid_path(&g, conn, &seeds, &path);
     }
     // Seeds outside the grid are bad input, not a panic.
@@ -174,7 +204,11 @@ fn open_patches_naive_standard_and_flat_planes() {
     let flat = grid_from(n, |v| v.z == 7);
     let below: Vec<IVec3> = (0..16).map(|x| IVec3::new(x, 2, 0)).collect();
     let above: Vec<IVec3> = (0..16).map(|x| IVec3::new(x, 2, 15)).collect();
-    let conn = |g: &BitGrid, c| patch_sides_connected(g, c, &below, &above).unwrap().connected;
+    let conn = |g: &BitGrid, c| {
+        patch_sides_connected(g, c, &below, &above)
+            .unwrap()
+            .connected
+    };
     assert!(!conn(&naive, SIX));
     assert!(conn(&naive, Connectivity::Eighteen));
     assert!(conn(&naive, C26));
@@ -258,11 +292,12 @@ fn bfs_labels(g: &BitGrid, conn: Connectivity) -> (Vec<u32>, u32) {
                 while let Some(p) = q.pop_front() {
                     for &m in &moves {
                         let w = p + m;
-                        if let Some(j) = g.linear_index(w) {
-                            if !g.get(w) && label[j] == 0 {
-                                label[j] = next;
-                                q.push_back(w);
-                            }
+                        if let Some(j) = g.linear_index(w)
+                            && !g.get(w)
+                            && label[j] == 0
+                        {
+                            label[j] = next;
+                            q.push_back(w);
                         }
                     }
                 }
@@ -278,12 +313,20 @@ fn bfs_labels(g: &BitGrid, conn: Connectivity) -> (Vec<u32>, u32) {
 fn flood_matches_bfs_oracle_on_random_grids() {
     let mut rng = ChaCha8Rng::seed_from_u64(2024);
     for case in 0..150 {
-        let n = [rng.random_range(1..12), rng.random_range(1..12), rng.random_range(1..12)];
+        let n = [
+            rng.random_range(1..12),
+            rng.random_range(1..12),
+            rng.random_range(1..12),
+        ];
         let p = [0.15, 0.35, 0.5, 0.65][case % 4];
         let g = grid_from(n, |_| rng.random_bool(p));
         for conn in ALL {
             let (label, count) = bfs_labels(&g, conn);
-            assert_eq!(count_empty_components(&g, conn).unwrap(), count as u64, "case {case}");
+            assert_eq!(
+                count_empty_components(&g, conn).unwrap(),
+                count as u64,
+                "case {case}"
+            );
             // Outside = labels present on the border.
             let mut outside = vec![false; count as usize + 1];
             for z in 0..n[2] as i32 {
@@ -308,7 +351,9 @@ fn flood_matches_bfs_oracle_on_random_grids() {
                 })
                 .collect();
             let seed_label = |v: IVec3| label[g.linear_index(v).unwrap()];
-            let want_tunnel = seeds.iter().any(|&s| seed_label(s) != 0 && outside[seed_label(s) as usize]);
+            let want_tunnel = seeds
+                .iter()
+                .any(|&s| seed_label(s) != 0 && outside[seed_label(s) as usize]);
             let v = closed_surface_tunnels(&g, conn, &seeds).unwrap();
             assert_eq!(v.tunnel, want_tunnel, "case {case} {conn:?}");
             let size = |l: u32| label.iter().filter(|&&x| x == l).count() as u64;
@@ -321,9 +366,14 @@ fn flood_matches_bfs_oracle_on_random_grids() {
                 .collect();
             inside_labels.sort_unstable();
             inside_labels.dedup();
-            assert_eq!(v.inside_empty, inside_labels.iter().map(|&l| size(l)).sum::<u64>());
+            assert_eq!(
+                v.inside_empty,
+                inside_labels.iter().map(|&l| size(l)).sum::<u64>()
+            );
             if want_tunnel {
-                let path = tunnel_path(&g, conn, &seeds, MemoryLimit::DEFAULT).unwrap().unwrap();
+                let path = tunnel_path(&g, conn, &seeds, MemoryLimit::DEFAULT)
+                    .unwrap()
+                    .unwrap();
                 assert_valid_path(&g, conn, &seeds, &path);
             }
             let pv = patch_sides_connected(&g, conn, &seeds[..2], &seeds[2..]).unwrap();
