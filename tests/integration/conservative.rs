@@ -361,3 +361,52 @@ fn real_mesh_reference_timing() {
         t0.elapsed().as_secs_f64()
     );
 }
+
+/// Triangles spanning 2^28 voxels up to the ±2^30 range ends, where the
+/// normal-axis product needs more than 128 bits: planes `z = s − a·x − b·y`
+/// (a, b ∈ {−1, 0, 1}) have a closed-form answer deep inside the triangle:
+/// the cube meets the plane iff `|ONE·(vz + a·vx + b·vy) − s| ≤ HALF·(1 + |a| + |b|)`.
+#[test]
+fn range_end_planes_have_closed_form_answers() {
+    let mut rng = ChaCha8Rng::seed_from_u64(1 << 20);
+    let l: i64 = 1 << 48;
+    let end: i64 = 1 << 50;
+    let mut met = 0;
+    for case in 0..200 {
+        let (a, b) = (rng.random_range(-1..=1i64), rng.random_range(-1..=1i64));
+        // Corners at the range ends (either sign) or random.
+        let pick = |rng: &mut ChaCha8Rng| match rng.random_range(0..3) {
+            0 => end - l,
+            1 => -end,
+            _ => rng.random_range(-end..end - l),
+        };
+        let (x0, y0) = (pick(&mut rng), pick(&mut rng));
+        let (xm, ym) = (x0 + l / 3, y0 + l / 3);
+        // Put the plane through the centroid, give or take a few fixed units,
+        // so that z stays within range.
+        let s = a * xm + b * ym + rng.random_range(-3 * ONE..3 * ONE);
+        let z = |x: i64, y: i64| s - a * x - b * y;
+        let tri = [
+            [x0, y0, z(x0, y0)],
+            [x0 + l, y0, z(x0 + l, y0)],
+            [x0, y0 + l, z(x0, y0 + l)],
+        ];
+        let test = TriangleBoxTest::new(&tri).unwrap();
+        let (vx, vy) = (voxkit::fixed::voxel_of(xm), voxkit::fixed::voxel_of(ym));
+        let vz0 = voxkit::fixed::voxel_of(z(xm, ym));
+        for dz in -3..=3i64 {
+            for dy in -1..=1i64 {
+                for dx in -1..=1i64 {
+                    let v = [vx + dx, vy + dy, vz0 + dz];
+                    let centre = ONE as i128 * (v[2] + a * v[0] + b * v[1]) as i128;
+                    let want =
+                        (centre - s as i128).abs() <= (HALF * (1 + a.abs() + b.abs())) as i128;
+                    let vv = IVec3::new(v[0] as i32, v[1] as i32, v[2] as i32);
+                    assert_eq!(test.meets(vv), want, "case {case} a={a} b={b} {vv}");
+                    met += want as u32;
+                }
+            }
+        }
+    }
+    assert!(met > 1000, "{met}");
+}
