@@ -13,6 +13,7 @@
 //! | [`io`] | atomic file writes; voxel files: binvox, MagicaVoxel .vox, .npy, NRRD |
 //! | [`mesh`] | triangle meshes + polylines; OBJ and glTF 2.0 loaders; grid fitting |
 //! | [`triangle`] | Kahan–Kelsen triangle point indexing and 2D rasterization |
+//! | [`voxelize`] | mesh voxelization and its exact references (conservative, solid) |
 //! | [`cli`] | the `voxkit` command line |
 //!
 //! Sources: D. Cohen-Or and A. Kaufman, *3D Line Voxelization and Connectivity

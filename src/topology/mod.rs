@@ -34,9 +34,14 @@
 
 pub mod connectivity;
 pub mod containment;
+pub mod tunnels;
 
 pub use connectivity::{connectivity_break, is_connected_path};
 pub use containment::{
     ContainmentGap, Rational, TOUCHED_VOXELS_MAX_BOX, containment_gap, covers_segment,
     first_untouched, segment_touches_voxel, segment_voxel_interval, touched_voxels,
+};
+pub use tunnels::{
+    PatchVerdict, TunnelVerdict, closed_surface_tunnels, count_empty_components,
+    patch_sides_connected, tunnel_path,
 };

@@ -1,3 +1,24 @@
 //! Mesh voxelization.
+//!
+//! Modes (see DESIGN.md): *thin* (6-tunnel-free), *thick* (26-tunnel-free),
+//! *conservative* (exactly the voxels whose closed cube meets the surface) and
+//! *solid* (surface plus interior). The fast voxelizers are built on the line
+//! engine and triangle indexing; this module also holds the **exact
+//! references** they are judged by:
+//!
+//! | module | what |
+//! |---|---|
+//! | [`conservative`] | exact triangle–box test (integer separating axes), per-triangle and mesh-level conservative sets |
+//! | [`solid`] | inside tests: generalized winding number, exact axis parity, 3-axis voting |
+//! | [`shapes`] | closed test meshes (UV sphere, torus, box) with rotations and offsets |
+//!
+//! Meshes are triangle soups in grid space with fixed-point vertices
+//! ([`conservative::FixedTriangle`], 2^-20 voxel, `|x| ≤ 2^30` voxels). Voxel
+//! `(i, j, k)` is the closed unit cube centred on the integer point `(i, j, k)`.
+//! Tunnel checks for the results live in [`crate::topology::tunnels`].
+
+pub mod conservative;
 pub mod slab;
+pub mod shapes;
+pub mod solid;
 pub mod surface;

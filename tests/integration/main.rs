@@ -2,7 +2,10 @@
 
 mod amanatides_woo;
 mod bricks;
+mod conservative;
 mod formats;
 mod line2d;
 mod mesh_io;
+mod solid;
 mod topology;
+mod tunnels;
