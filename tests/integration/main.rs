@@ -1,1 +1,2 @@
 //! One integration test binary (one link under fat LTO); a module per concept.
+mod triangle_index;
