@@ -449,14 +449,12 @@ impl Run {
     fn next_line(&mut self, pr: &Proper) {
         self.s += pr.gc;
         self.rem += pr.tau;
-        let wrap = self.rem >= pr.lc;
-        if wrap {
-            self.rem -= pr.lc;
-        }
-        self.first = add(self.first, pr.e);
-        if wrap {
-            self.first = sub(self.first, pr.cs);
-        }
+        // Branch-free: the wrap is data-dependent and unpredictable when lines
+        // are short (gc = 1 is the common case).
+        let wrap = (self.rem >= pr.lc) as u64;
+        self.rem -= wrap * pr.lc;
+        let w = wrap as i64;
+        self.first = add(self.first, [pr.e[0] - w * pr.cs[0], pr.e[1] - w * pr.cs[1]]);
         self.p = self.first;
         self.t = self.rem;
         self.n = 0;
