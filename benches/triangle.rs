@@ -58,6 +58,17 @@ fn enumeration(c: &mut Criterion) {
         g.bench_with_input(BenchmarkId::new("indexed_iter", name), &t, |bch, t| {
             bch.iter(|| black_box(t).iter().fold(0i64, fold))
         });
+        g.bench_with_input(
+            BenchmarkId::new("adaptive_unordered", name),
+            &t,
+            |bch, t| {
+                bch.iter(|| {
+                    let mut acc = 0i64;
+                    black_box(t).for_each_point_unordered(|p| acc = fold(acc, p));
+                    acc
+                })
+            },
+        );
         g.bench_with_input(BenchmarkId::new("scanline", name), &s, |bch, s| {
             bch.iter(|| {
                 let mut acc = 0i64;
@@ -140,6 +151,17 @@ fn mesh(c: &mut Criterion) {
                 )
                 .into_iter()
                 .fold(0i64, i64::wrapping_add)
+        })
+    });
+    g.bench_function("parallel_unordered", |b| {
+        b.iter(|| {
+            let acc = std::sync::atomic::AtomicI64::new(0);
+            black_box(&m).for_each_par_unordered(1 << 12, |t, p| {
+                if fold(t as i64, p) == i64::MIN {
+                    acc.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                }
+            });
+            acc.into_inner()
         })
     });
     g.finish();

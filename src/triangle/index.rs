@@ -623,6 +623,34 @@ impl TriangleIndex {
         self.for_each_in_range(0..self.len, f)
     }
 
+    /// Visits every point once in whichever order is cheapest: the index walk
+    /// when its skew lines are long (`gc ≥ 4`) or the triangle has more rows
+    /// than a quarter of its points (skinny), the scanline walk
+    /// ([`ScanlineLattice`](super::ScanlineLattice)) otherwise (fat triangles
+    /// with short skew lines). Use it when the order does not matter.
+    pub fn for_each_point_unordered(&self, f: impl FnMut(LatticePoint)) {
+        if self.prefers_scanline() {
+            if let Ok(s) = super::ScanlineLattice::new(self.vertices) {
+                return s.for_each(f);
+            }
+        }
+        self.for_each_point(f)
+    }
+
+    /// Whether a full enumeration is cheaper row by row (see
+    /// [`for_each_point_unordered`](Self::for_each_point_unordered)).
+    pub fn prefers_scanline(&self) -> bool {
+        match &self.kind {
+            Kind::Segment { .. } => false,
+            Kind::Proper(p) => {
+                let y0 = self.vertices.iter().map(|v| v[1]).min().unwrap_or(0);
+                let y1 = self.vertices.iter().map(|v| v[1]).max().unwrap_or(0);
+                let rows = (y1 - y0) as u64 + 1;
+                p.gc < 4 && rows.saturating_mul(4) <= self.len
+            }
+        }
+    }
+
     /// Visits every point once, in parallel: `0..len()` is cut into even index
     /// ranges (about four per rayon thread, at least `min_chunk` points each)
     /// that threads enumerate independently. Order is unspecified.

@@ -135,6 +135,49 @@ impl MeshIndex {
         });
     }
 
+    /// Visits the pairs with global indices in `range` (clamped), each once, in
+    /// no promised order: triangles wholly inside the range are walked with
+    /// [`TriangleIndex::for_each_point_unordered`] (scanline for fat ones),
+    /// triangles cut by the range ends by index. Disjoint ranges still
+    /// partition the pairs exactly.
+    pub fn for_each_in_range_unordered(
+        &self,
+        range: Range<u64>,
+        mut f: impl FnMut(usize, LatticePoint),
+    ) {
+        let hi = range.end.min(self.len());
+        let lo = range.start.min(hi);
+        let Some((mut t, mut local)) = self.locate(lo) else {
+            return;
+        };
+        let mut g = lo;
+        while g < hi {
+            let tri = &self.tris[t];
+            let end = (local + (hi - g)).min(tri.len());
+            if local == 0 && end == tri.len() {
+                tri.for_each_point_unordered(|p| f(t, p));
+            } else {
+                tri.for_each_in_range(local..end, |p| f(t, p));
+            }
+            g += end - local;
+            t += 1;
+            local = 0;
+        }
+    }
+
+    /// Parallel [`for_each_in_range_unordered`](Self::for_each_in_range_unordered)
+    /// over even chunks of the global range (at least `min_chunk` pairs each):
+    /// the fastest way to visit every pair once when order does not matter.
+    pub fn for_each_par_unordered(
+        &self,
+        min_chunk: u64,
+        f: impl Fn(usize, LatticePoint) + Sync + Send,
+    ) {
+        even_chunks(self.len(), min_chunk)
+            .into_par_iter()
+            .for_each(|r| self.for_each_in_range_unordered(r, &f));
+    }
+
     /// Visits every pair once, in parallel over even chunks of the global index
     /// range (at least `min_chunk` pairs each). Order is unspecified.
     pub fn for_each_par(&self, min_chunk: u64, f: impl Fn(usize, LatticePoint) + Sync + Send) {

@@ -388,6 +388,33 @@ fn parallel_equals_sequential() {
 }
 
 #[test]
+fn unordered_full_enumeration_is_the_point_set() {
+    let mut rng = ChaCha8Rng::seed_from_u64(14);
+    let mut used_scan = 0;
+    for n in 0..300 {
+        let v = if n % 10 == 0 {
+            [[0, 0], [400, 401], [3, 3]]
+        } else {
+            rand_tri(&mut rng, [2, 10, 50][n % 3], [0, 0])
+        };
+        let t = TriangleIndex::new(v).unwrap();
+        used_scan += t.prefers_scanline() as u32;
+        let mut a = Vec::new();
+        t.for_each_point_unordered(|p| a.push(p));
+        let mut b: Vec<_> = t.iter().collect();
+        a.sort();
+        b.sort();
+        assert_eq!(a, b, "{v:?}");
+    }
+    assert!(used_scan > 50, "both paths exercised ({used_scan})");
+    assert!(
+        !TriangleIndex::new([[0, 0], [400, 401], [3, 3]])
+            .unwrap()
+            .prefers_scanline()
+    );
+}
+
+#[test]
 fn ranges_partition_the_index() {
     let mut rng = ChaCha8Rng::seed_from_u64(12);
     for _ in 0..200 {
@@ -449,6 +476,23 @@ fn mesh_enumerator_covers_every_pair_once() {
     // Per-chunk states cover the range in order.
     let chunks = m.map_chunks_par(16, |_| Vec::new(), |s, t, p| s.push((t, p)));
     assert_eq!(chunks.concat(), expect);
+    // Unordered variants: same multiset over any partition.
+    for _ in 0..10 {
+        let mut cuts: Vec<u64> = (0..5).map(|_| rng.random_range(0..=m.len())).collect();
+        cuts.extend([0, m.len()]);
+        cuts.sort();
+        let mut got = Vec::new();
+        for w in cuts.windows(2) {
+            m.for_each_in_range_unordered(w[0]..w[1], |t, p| got.push((t, p)));
+        }
+        got.sort();
+        assert_eq!(got, e);
+    }
+    let seen = Mutex::new(Vec::new());
+    m.for_each_par_unordered(16, |t, p| seen.lock().unwrap().push((t, p)));
+    let mut seen = seen.into_inner().unwrap();
+    seen.sort();
+    assert_eq!(seen, e);
     let n = AtomicU64::new(0);
     (0..4u64).into_par_iter().for_each(|_| {
         m.for_each_in_range(0..m.len(), |_, _| {
