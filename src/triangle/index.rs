@@ -629,10 +629,11 @@ impl TriangleIndex {
     /// ([`ScanlineLattice`](super::ScanlineLattice)) otherwise (fat triangles
     /// with short skew lines). Use it when the order does not matter.
     pub fn for_each_point_unordered(&self, f: impl FnMut(LatticePoint)) {
-        if self.prefers_scanline() {
-            if let Ok(s) = super::ScanlineLattice::new(self.vertices) {
-                return s.for_each(f);
-            }
+        // The vertices were validated by `new`, so the scanline setup cannot fail.
+        if self.prefers_scanline()
+            && let Ok(s) = super::ScanlineLattice::new(self.vertices)
+        {
+            return s.for_each(f);
         }
         self.for_each_point(f)
     }
