@@ -8,4 +8,5 @@ mod line2d;
 mod mesh_io;
 mod solid;
 mod topology;
+mod triangle_index;
 mod tunnels;
