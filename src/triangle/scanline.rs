@@ -64,7 +64,9 @@ impl ScanEdge {
 /// let t = FixedTriangle::from_pixels([[0.0, 0.0], [4.0, 0.0], [0.0, 4.0]]).unwrap();
 /// let mut spans = Vec::new();
 /// scanline_spans(&t, 8, 8, |y, a, b| spans.push((y, a, b)));
-/// assert_eq!(spans, vec![(0, 0, 3), (1, 0, 2), (2, 0, 1), (3, 0, 0)]);
+/// // Centres (x + ½, y + ½) with x + y + 1 < 4: the hypotenuse is a right
+/// // edge, so centres on it (x + y = 3) are left to the neighbour.
+/// assert_eq!(spans, vec![(0, 0, 2), (1, 0, 1), (2, 0, 0)]);
 /// ```
 pub fn scanline_spans<F: FnMut(u32, u32, u32)>(
     tri: &FixedTriangle,
