@@ -33,8 +33,9 @@ pub use interp::{
     draw_zbuffer, interpolate, painter_order, to_rgb8,
 };
 pub use raster::{
-    EdgeEq, FixedTriangle, Fragment, MAX_FIXED_COORD, MAX_PIXEL_COORD, PixelRect, SUB_BITS,
-    SUB_HALF, SUB_ONE, TriangleSetup, edge_spans, fill_triangle_edge, to_subpixel, walk_fragments,
+    EdgeEq, FixedTriangle, Fragment, Fragments, MAX_FIXED_COORD, MAX_PIXEL_COORD, PixelRect,
+    SUB_BITS, SUB_HALF, SUB_ONE, TriangleSetup, edge_spans, fill_triangle_edge, to_subpixel,
+    walk_fragments,
 };
-pub use render_mesh::{Lighting, MeshRenderOptions, render_mesh, vertex_normals};
+pub use render_mesh::{Lighting, MeshRenderOptions, render_mesh, render_mesh_png, vertex_normals};
 pub use scanline::{fill_triangle_scanline, scanline_spans};

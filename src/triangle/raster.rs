@@ -282,6 +282,78 @@ pub fn walk_fragments<F: FnMut(Fragment)>(setup: &TriangleSetup, mut visit: F) {
     }
 }
 
+/// The covered pixels of a triangle as an iterator (the same stepping as
+/// [`walk_fragments`], one pixel per `next`; the visitor is faster).
+///
+/// ```
+/// use voxkit::triangle::{FixedTriangle, Fragments, TriangleSetup};
+/// let t = FixedTriangle::from_pixels([[0.0, 0.0], [3.0, 0.0], [0.0, 3.0]]).unwrap();
+/// let s = TriangleSetup::new(&t, 8, 8).unwrap();
+/// let px: Vec<(u32, u32)> = Fragments::new(&s).map(|f| (f.x, f.y)).collect();
+/// assert_eq!(px, [(0, 0), (1, 0), (0, 1)]);
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct Fragments {
+    setup: TriangleSetup,
+    x: u32,
+    y: u32,
+    row: [i64; 3],
+    w: [i64; 3],
+    done: bool,
+}
+
+impl Fragments {
+    /// Starts at the top-left pixel of the clipped bounding box.
+    pub fn new(setup: &TriangleSetup) -> Self {
+        let (b, e) = (setup.bbox, setup.edges);
+        let (x0, y0) = (b.x0 as i64, b.y0 as i64);
+        let row = e.map(|e| e.at(x0, y0) + e.bias);
+        Fragments {
+            setup: *setup,
+            x: b.x0,
+            y: b.y0,
+            row,
+            w: row,
+            done: false,
+        }
+    }
+}
+
+impl Iterator for Fragments {
+    type Item = Fragment;
+
+    fn next(&mut self) -> Option<Fragment> {
+        let (b, e) = (self.setup.bbox, self.setup.edges);
+        while !self.done {
+            let (x, y, w) = (self.x, self.y, self.w);
+            // Step to the next pixel of the box.
+            if self.x < b.x1 {
+                self.x += 1;
+                for (w, e) in self.w.iter_mut().zip(&e) {
+                    *w += e.dx;
+                }
+            } else if self.y < b.y1 {
+                self.x = b.x0;
+                self.y += 1;
+                for (r, e) in self.row.iter_mut().zip(&e) {
+                    *r += e.dy;
+                }
+                self.w = self.row;
+            } else {
+                self.done = true;
+            }
+            if (w[0] | w[1] | w[2]) >= 0 {
+                return Some(Fragment {
+                    x,
+                    y,
+                    w: [w[0] - e[0].bias, w[1] - e[1].bias, w[2] - e[2].bias],
+                });
+            }
+        }
+        None
+    }
+}
+
 /// Calls `visit(y, x_start, x_end)` (inclusive) for each run of covered
 /// pixels of `tri`, found by walking edge functions over the clipped
 /// bounding box. Same pixels as [`super::scanline::scanline_spans`].

@@ -247,3 +247,23 @@ pub fn render_mesh(
     }
     Ok(target)
 }
+
+/// [`render_mesh`], then writes the colour image as PNG to `path` through
+/// [`crate::io::atomic_write`] (refusing an existing file unless
+/// `overwrite`). Returns the rendered target as well.
+#[allow(clippy::too_many_arguments)]
+pub fn render_mesh_png(
+    positions: &[Vec3],
+    indices: &[[u32; 3]],
+    colors: Option<&[Vec3]>,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    opts: &MeshRenderOptions,
+    path: &std::path::Path,
+    overwrite: bool,
+) -> Result<RenderTarget> {
+    let target = render_mesh(positions, indices, colors, camera, width, height, opts)?;
+    target.color.write_png(path, overwrite)?;
+    Ok(target)
+}

@@ -6,10 +6,11 @@ use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use voxkit::triangle::{
-    Camera, DepthTest, FixedTriangle, Framebuffer, INSIDE_I32_MAX, InsideF32, InsideI32,
+    Camera, DepthTest, FixedTriangle, Fragments, Framebuffer, INSIDE_I32_MAX, InsideF32, InsideI32,
     Interpolator, Lighting, MAX_FIXED_COORD, MeshRenderOptions, RenderTarget, SUB_HALF, SUB_ONE,
-    ShadedVertex, Shading, draw_painter, draw_shaded, draw_zbuffer, edge_spans, fill_triangle_edge,
-    fill_triangle_scanline, painter_order, render_mesh, scanline_spans,
+    ShadedVertex, Shading, TriangleSetup, draw_painter, draw_shaded, draw_zbuffer, edge_spans,
+    fill_triangle_edge, fill_triangle_scanline, painter_order, render_mesh, scanline_spans,
+    walk_fragments,
 };
 
 /// Pixels of a triangle, sorted, from either rasterizer.
@@ -107,6 +108,16 @@ fn scanline_edge_and_oracle_agree_on_random_triangles() {
         assert_eq!(e, s, "case {i}: {t:?}");
         if i % 3 == 0 {
             assert_eq!(e, oracle_pixels(&t, w, h), "oracle, case {i}: {t:?}");
+        }
+        // The iterator yields what the visitor visits, weights included.
+        if let Some(setup) = TriangleSetup::new(&t, w, h) {
+            let mut walked = Vec::new();
+            walk_fragments(&setup, |f| walked.push(f));
+            assert_eq!(Fragments::new(&setup).collect::<Vec<_>>(), walked);
+            for f in &walked {
+                assert_eq!(f.w, setup.weights_at(f.x as i64, f.y as i64));
+                assert_eq!(f.w.iter().sum::<i64>(), setup.area2);
+            }
         }
         // The fill functions report the same counts.
         let mut fb = Framebuffer::new(w, h, 0u8).unwrap();
@@ -680,7 +691,9 @@ fn render_errors_and_png_output() {
     let dir = std::env::temp_dir().join(format!("voxkit-raster-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("cube.png");
-    img.color.write_png(&path, true).unwrap();
+    let img2 =
+        voxkit::triangle::render_mesh_png(&p, &idx, None, &cam, 40, 30, &o, &path, true).unwrap();
+    assert_eq!(img2, img);
     assert!(img.color.write_png(&path, false).is_err());
     let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap()));
     let mut reader = dec.read_info().unwrap();
