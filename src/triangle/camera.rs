@@ -8,7 +8,7 @@
 //! y **down**: pixel `(i, j)` has its centre at NDC
 //! `x = 2(i + ½)/W − 1`, `y = 1 − 2(j + ½)/H`.
 
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Mat4, Vec3};
 
 use crate::error::{Result, VoxkitError};
 
@@ -172,12 +172,28 @@ impl Camera {
     /// `eye`; for an orthographic one all rays are parallel to the view
     /// direction.
     pub fn pixel_ray(&self, px: f32, py: f32, width: u32, height: u32) -> (Vec3, Vec3) {
-        let inv = self.view_projection(width, height).inverse();
+        // Built from the camera basis rather than by inverting the
+        // view-projection matrix, which loses precision when far/near is
+        // large.
+        let f = self.forward();
+        let r = f.cross(self.up).normalize();
+        let u = r.cross(f);
+        let aspect = width as f32 / height as f32;
         let nx = 2.0 * px / width as f32 - 1.0;
         let ny = 1.0 - 2.0 * py / height as f32;
-        let a = inv * Vec4::new(nx, ny, 0.0, 1.0);
-        let b = inv * Vec4::new(nx, ny, 1.0, 1.0);
-        let (a, b) = (a.truncate() / a.w, b.truncate() / b.w);
-        (a, (b - a).normalize())
+        match self.projection {
+            Projection::Perspective { fov_y_deg } => {
+                let t = (fov_y_deg.to_radians() * 0.5).tan();
+                let d = f + r * (nx * t * aspect) + u * (ny * t);
+                // `d` has unit forward component, so `eye + near·d` is on the
+                // near plane.
+                (self.eye + d * self.near, d.normalize())
+            }
+            Projection::Orthographic { height } => {
+                let (hh, hw) = (height * 0.5, height * 0.5 * aspect);
+                let o = self.eye + r * (nx * hw) + u * (ny * hh) + f * self.near;
+                (o, f)
+            }
+        }
     }
 }

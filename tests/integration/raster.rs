@@ -704,3 +704,38 @@ fn render_errors_and_png_output() {
     assert_eq!(&buf[..], &bytes[..]);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn pixel_rays_project_back_to_their_pixels() {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let (w, h) = (80, 50);
+    let eye = Vec3::new(1.0, 2.0, 6.0);
+    let mut cams = [
+        Camera::perspective(eye, Vec3::new(0.5, 0.0, 0.0), Vec3::Y, 50.0),
+        Camera::orthographic(eye, Vec3::new(0.5, 0.0, 0.0), Vec3::Y, 5.0),
+    ];
+    for cam in &mut cams {
+        cam.near = 0.5;
+        cam.far = 50.0;
+        let vp = cam.view_projection(w, h);
+        for _ in 0..200 {
+            let (px, py) = (
+                rng.random_range(0.0..w as f32),
+                rng.random_range(0.0..h as f32),
+            );
+            let (o, d) = cam.pixel_ray(px, py, w, h);
+            assert!((d.length() - 1.0).abs() < 1e-5);
+            // The origin lies on the near plane.
+            let ndc = vp.project_point3(o);
+            assert!(ndc.z.abs() < 1e-4, "{ndc}");
+            for s in [0.0, 1.0, 10.0] {
+                let q = vp.project_point3(o + d * s);
+                let (qx, qy) = ((q.x + 1.0) * 0.5 * w as f32, (1.0 - q.y) * 0.5 * h as f32);
+                assert!(
+                    (qx - px).abs() < 1e-3 && (qy - py).abs() < 1e-3,
+                    "{qx},{qy} vs {px},{py}"
+                );
+            }
+        }
+    }
+}
