@@ -6,6 +6,7 @@ mod conservative;
 mod formats;
 mod line2d;
 mod mesh_io;
+mod raster;
 mod solid;
 mod topology;
 mod triangle_index;
