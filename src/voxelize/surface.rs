@@ -44,7 +44,7 @@ pub const VOXEL_ONE: i64 = 1 << VOXEL_FRAC_BITS;
 pub const MAX_TRIANGLE_SPAN: i64 = 1 << 10;
 
 /// A triangle with fixed-point grid-space vertices ([`VOXEL_FRAC_BITS`]).
-pub type FixedTriangle = [[i64; 3]; 3];
+pub type SurfaceTriangle = [[i64; 3]; 3];
 
 /// A family of parallel lattice lines through voxel centres.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -108,7 +108,7 @@ impl LineFamily {
 /// got.sort();
 /// assert_eq!(got, vec![[0, 0, 0], [0, 1, 0], [1, 0, 0]]);
 /// ```
-pub fn triangle_crossings(tri: &FixedTriangle, family: LineFamily, emit: &mut impl FnMut(Voxel)) {
+pub fn triangle_crossings(tri: &SurfaceTriangle, family: LineFamily, emit: &mut impl FnMut(Voxel)) {
     let p = [family.to_family(tri[0]), family.to_family(tri[1]), family.to_family(tri[2])];
     // Local lattice origin: the floor of the minimum corner, so that local
     // coordinates are non-negative and bounded by the triangle's span.
@@ -303,7 +303,7 @@ impl SurfaceMode {
 /// slab, then by first touch in triangle order) and independent of the number
 /// of threads.
 pub fn voxelize_surface(
-    triangles: &[FixedTriangle],
+    triangles: &[SurfaceTriangle],
     dims: [i32; 3],
     mode: SurfaceMode,
 ) -> Vec<([i32; 3], BrickBits)> {
@@ -344,11 +344,11 @@ impl SlabPlan {
     /// estimate misses.
     const SLABS_PER_THREAD: usize = 4;
 
-    fn new(triangles: &[FixedTriangle], dims: [i32; 3]) -> Self {
+    fn new(triangles: &[SurfaceTriangle], dims: [i32; 3]) -> Self {
         let nz = dims[2].max(1);
         // Voxel layers a triangle can write: every crossing voxel contains a
         // point of the triangle, so it lies within ±1/2 of the z extent.
-        let z_range = |tri: &FixedTriangle| {
+        let z_range = |tri: &SurfaceTriangle| {
             let lo = tri.iter().map(|p| p[2]).min().unwrap_or(0);
             let hi = tri.iter().map(|p| p[2]).max().unwrap_or(0);
             let lo = (lo - VOXEL_ONE / 2).div_euclid(VOXEL_ONE).clamp(0, nz as i64 - 1) as i32;
@@ -356,7 +356,7 @@ impl SlabPlan {
             (lo, hi)
         };
         // Expected work: lattice points ≈ projected areas, plus a set-up cost.
-        let weight = |tri: &FixedTriangle| {
+        let weight = |tri: &SurfaceTriangle| {
             let s2 = (VOXEL_ONE * VOXEL_ONE) as f64;
             let e1 = [0, 1, 2].map(|a| (tri[1][a] - tri[0][a]) as f64);
             let e2 = [0, 1, 2].map(|a| (tri[2][a] - tri[0][a]) as f64);
@@ -427,7 +427,7 @@ mod tests {
     /// triangle's bounding box, intersect exactly by Cramer's rule on
     /// `P0 + s·e1 + w·e2 = (i, j, t)` in family coordinates (i128 rationals),
     /// keep closed-triangle hits and round `t` by `floor(t + 1/2)`.
-    fn reference(tri: &FixedTriangle, family: LineFamily) -> Vec<[i32; 3]> {
+    fn reference(tri: &SurfaceTriangle, family: LineFamily) -> Vec<[i32; 3]> {
         let p = tri.map(|q| family.to_family(q).map(i128::from));
         let s = VOXEL_ONE as i128;
         let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
@@ -465,14 +465,14 @@ mod tests {
         out
     }
 
-    fn kernel(tri: &FixedTriangle, family: LineFamily) -> Vec<[i32; 3]> {
+    fn kernel(tri: &SurfaceTriangle, family: LineFamily) -> Vec<[i32; 3]> {
         let mut got = Vec::new();
         triangle_crossings(tri, family, &mut |v| got.push(v.to_array()));
         got.sort();
         got
     }
 
-    fn check(tri: &FixedTriangle) {
+    fn check(tri: &SurfaceTriangle) {
         for family in THIN_FAMILIES.iter().chain(THICK_FAMILIES.iter()) {
             assert_eq!(kernel(tri, *family), reference(tri, *family), "{tri:?} {family:?}");
         }
@@ -486,7 +486,7 @@ mod tests {
             let scale = [1, VOXEL_ONE / 2, VOXEL_ONE][case % 3];
             let extent = [3, 12, 40][case % 4 % 3] * VOXEL_ONE / scale;
             let off = rng.random_range(-1000..1000) * VOXEL_ONE;
-            let tri: FixedTriangle = std::array::from_fn(|_| {
+            let tri: SurfaceTriangle = std::array::from_fn(|_| {
                 std::array::from_fn(|_| off + rng.random_range(-extent..=extent) * scale)
             });
             check(&tri);
