@@ -1,1 +1,3 @@
 //! One integration test binary (one link under fat LTO); a module per concept.
+
+mod topology;
