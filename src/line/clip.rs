@@ -24,11 +24,7 @@ impl GridBox {
     pub fn from_dims(dims: Dims) -> Self {
         GridBox {
             lo: Voxel::ZERO,
-            hi: Voxel::new(
-                dims[0] as i32 - 1,
-                dims[1] as i32 - 1,
-                dims[2] as i32 - 1,
-            ),
+            hi: Voxel::new(dims[0] as i32 - 1, dims[1] as i32 - 1, dims[2] as i32 - 1),
         }
     }
 
@@ -45,10 +41,7 @@ impl GridBox {
         let mut h = [0; 3];
         for k in 0..3 {
             let w = f.perm[k];
-            let (a, b) = (
-                f.sign[k] * (lo[w] - f.v0[w]),
-                f.sign[k] * (hi[w] - f.v0[w]),
-            );
+            let (a, b) = (f.sign[k] * (lo[w] - f.v0[w]), f.sign[k] * (hi[w] - f.v0[w]));
             l[k] = a.min(b);
             h[k] = a.max(b);
         }

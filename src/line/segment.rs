@@ -151,7 +151,10 @@ impl DecisionInt for i64 {
     const ZERO: Self = 0;
     #[inline(always)]
     fn from_i128(v: i128) -> Self {
-        debug_assert!(i64::try_from(v).is_ok(), "decision variable {v} exceeds i64");
+        debug_assert!(
+            i64::try_from(v).is_ok(),
+            "decision variable {v} exceeds i64"
+        );
         v as i64
     }
 }

@@ -187,7 +187,11 @@ fn walk_18<F: FnMut(usize) -> ControlFlow<()>>(
     let (mut lo, mut hi) = (0u64, plan.count() - 1);
     while lo < hi {
         let mid = lo + (hi - lo).div_ceil(2);
-        if sum_at(mid) <= ts { lo = mid } else { hi = mid - 1 }
+        if sum_at(mid) <= ts {
+            lo = mid
+        } else {
+            hi = mid - 1
+        }
     }
     let mut line = Line18::at_position(f, plan, lo);
     let mut prev: Option<[i64; 3]> = None;
@@ -327,4 +331,3 @@ pub fn walk<T>(
     let r = dispatch(shape, seg, conn, &mut by_index);
     outcome(grid, r)
 }
-
