@@ -93,10 +93,15 @@ fn voxels(args: &LineArgs, seg: &Segment) -> Result<Vec<IVec3>, CliError> {
 }
 
 fn aw_voxels(seg: &Segment) -> Result<Vec<IVec3>, CliError> {
-    let _ = seg;
-    Err(CliError::bad_input(
-        "--algo aw is not available in this build".to_string(),
-    ))
+    // Amanatides–Woo runs in f64 on the segment's (fixed-point) endpoints.
+    let p = |q: crate::fixed::FixedPoint| {
+        glam::DVec3::new(
+            crate::fixed::to_f64(q[0]),
+            crate::fixed::to_f64(q[1]),
+            crate::fixed::to_f64(q[2]),
+        )
+    };
+    Ok(crate::line::amanatides_woo::aw_line(p(seg.a()), p(seg.b()))?.collect())
 }
 
 fn write_line(out: &mut dyn Write, vs: &[IVec3]) -> Result<(), CliError> {
@@ -121,7 +126,7 @@ pub fn run(args: LineArgs, out: &mut dyn Write) -> Result<(), CliError> {
         ));
     }
     if !args.coords.is_empty() {
-        if args.coords.len() % 6 != 0 {
+        if !args.coords.len().is_multiple_of(6) {
             return Err(CliError::bad_input(format!(
                 "expected 6 numbers per segment, got {} arguments",
                 args.coords.len()

@@ -213,7 +213,7 @@ impl<F: FnMut(Voxel) -> bool> Iterator for AdaptiveRay<F> {
         if self.done {
             return None;
         }
-        let v = self.core.f.to_world(self.core.c);
+        let v = self.core.f.voxel_world(self.core.c);
         let fl = (self.flagged)(v);
         if self.core.step(fl).is_none() {
             self.done = true;
@@ -262,7 +262,7 @@ pub fn adaptive_walk(
     let off = Offsets::new(&shape.table, &f);
     let cells = grid.as_slice();
     let mut core = Core::at_tripod(seg, c);
-    let mut idx = shape.index(f.to_world(c));
+    let mut idx = shape.index(f.voxel_world(c));
     let mut visited = 0u64;
     loop {
         // SAFETY-free: checked indexing here; the adaptive ray is not the

@@ -63,6 +63,7 @@ fn voxel_after_crossing(f: &Frame, k: usize, n: i64) -> [i64; 3] {
     let rk = f.r(k, n - 1);
     let mut c = [0i64; 3];
     c[k] = n;
+    #[allow(clippy::needless_range_loop)] // j indexes c and several frame arrays
     for j in 0..3 {
         if j == k {
             continue;

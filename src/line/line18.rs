@@ -117,7 +117,7 @@ impl Iterator for Line18 {
     type Item = IVec3;
     #[inline]
     fn next(&mut self) -> Option<IVec3> {
-        self.next_local().map(|c| self.frame.to_world(c))
+        self.next_local().map(|c| self.frame.voxel_world(c))
     }
 
     fn size_hint(&self) -> (usize, Option<usize>) {

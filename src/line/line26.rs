@@ -128,8 +128,8 @@ fn compress(path: &[[i64; 3]]) -> Moves {
             j += 1;
         }
         let mut mask = 0u8;
-        for k in 0..3 {
-            if path[j][k] != path[i][k] {
+        for (k, (p, q)) in path[j].iter().zip(path[i].iter()).enumerate() {
+            if p != q {
                 mask |= 1 << k;
             }
         }
@@ -333,7 +333,7 @@ impl Line26 {
         let f = Frame::new(seg);
         let plan = Plan26::new(&f);
         Line26 {
-            cur: f.to_world([0; 3]),
+            cur: f.voxel_world([0; 3]),
             cursor: Cursor26::at(&f, plan, 0),
             steps: std::array::from_fn(|m| f.mask_step(m as u8)),
             remaining: plan.count(),
@@ -350,7 +350,7 @@ impl Line26 {
             None => (0, 0),
         };
         Line26 {
-            cur: f.to_world(plan.voxel_at(&f, p)),
+            cur: f.voxel_world(plan.voxel_at(&f, p)),
             cursor: Cursor26::at(&f, plan, p),
             steps: std::array::from_fn(|m| f.mask_step(m as u8)),
             remaining: n,

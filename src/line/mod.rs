@@ -25,9 +25,11 @@
 //! additions per step.
 
 pub mod adaptive;
+pub mod amanatides_woo;
 pub mod clip;
 pub mod line18;
 pub mod line26;
+pub mod line2d;
 pub mod segment;
 pub mod tripod6;
 pub mod walk;

@@ -256,7 +256,7 @@ impl Frame {
 
     /// World voxel of local voxel `c`.
     #[inline]
-    pub fn to_world(&self, c: [i64; 3]) -> Voxel {
+    pub fn voxel_world(&self, c: [i64; 3]) -> Voxel {
         let mut w = self.v0;
         for k in 0..3 {
             w[self.perm[k]] += self.sign[k] * c[k];

@@ -135,7 +135,7 @@ impl Tripod6 {
         let f = Frame::new(seg);
         Tripod6 {
             state: AnyTripod::at(&f, [0; 3]),
-            cur: f.to_world([0; 3]),
+            cur: f.voxel_world([0; 3]),
             steps: f.world_steps(),
             remaining: f.tripod_steps() + 1,
         }
@@ -148,13 +148,13 @@ impl Tripod6 {
         match tripod_range(&f, box_) {
             Some((c, n)) => Tripod6 {
                 state: AnyTripod::at(&f, c),
-                cur: f.to_world(c),
+                cur: f.voxel_world(c),
                 steps: f.world_steps(),
                 remaining: n,
             },
             None => Tripod6 {
                 state: AnyTripod::at(&f, [0; 3]),
-                cur: f.to_world([0; 3]),
+                cur: f.voxel_world([0; 3]),
                 steps: f.world_steps(),
                 remaining: 0,
             },

@@ -115,7 +115,7 @@ fn walk_tripod<F: FnMut(usize) -> ControlFlow<()>>(
     let Some((c, n)) = tripod_range(f, &GridBox::from_dims(dims)) else {
         return Ok(0);
     };
-    let idx = start_index(f.to_world(c));
+    let idx = start_index(f.voxel_world(c));
     match AnyTripod::at(f, c) {
         AnyTripod::Narrow(s) => run_tripod(s, idx, n, &off.axis, visit),
         AnyTripod::Wide(s) => run_tripod(s, idx, n, &off.axis, visit),
@@ -135,7 +135,7 @@ fn walk_26<F: FnMut(usize) -> ControlFlow<()>>(
     };
     let total = p1 - p0 + 1;
     let mut cur = Cursor26::at(f, plan, p0);
-    let mut idx = start_index(f.to_world(plan.voxel_at(f, p0)));
+    let mut idx = start_index(f.voxel_world(plan.voxel_at(f, p0)));
     if visit(idx).is_break() {
         return Err(idx);
     }
@@ -199,7 +199,7 @@ fn walk_18<F: FnMut(usize) -> ControlFlow<()>>(
     let mut visited = 0u64;
     while let Some(v) = line.next_local() {
         idx = match prev {
-            None => start_index(f.to_world(v)),
+            None => start_index(f.voxel_world(v)),
             Some(p) => {
                 let mask = (0..3).fold(0usize, |m, k| m | (((v[k] - p[k]) as usize) << k));
                 idx.wrapping_add_signed(off.mask[mask])
