@@ -41,12 +41,7 @@ pub struct LineArgs {
 
     /// For `--algo adaptive`: voxels in this inclusive box
     /// `X0,Y0,Z0,X1,Y1,Z1` carry a proximity flag.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        num_args = 6,
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub flag_box: Option<Vec<i32>>,
 
     /// Segments as `x0 y0 z0 x1 y1 z1 ...` (6 numbers each); read from stdin
@@ -120,6 +115,11 @@ fn write_line(out: &mut dyn Write, vs: &[IVec3]) -> Result<(), CliError> {
 
 /// Runs `voxkit line`.
 pub fn run(args: LineArgs, out: &mut dyn Write) -> Result<(), CliError> {
+    if args.flag_box.as_ref().is_some_and(|b| b.len() != 6) {
+        return Err(CliError::bad_input(
+            "--flag-box needs 6 integers X0,Y0,Z0,X1,Y1,Z1",
+        ));
+    }
     if args.flag_box.is_some() && args.algo != LineAlgo::Adaptive {
         return Err(CliError::bad_input(
             "--flag-box only applies to --algo adaptive",
