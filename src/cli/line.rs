@@ -152,3 +152,44 @@ pub fn run(args: LineArgs, out: &mut dyn Write) -> Result<(), CliError> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    fn run_args(args: &[&str]) -> Result<String, CliError> {
+        let cli = crate::cli::Cli::try_parse_from(args)
+            .map_err(|e| CliError::bad_input(e.to_string()))?;
+        let mut out = Vec::new();
+        crate::cli::run(cli, &mut out)?;
+        Ok(String::from_utf8(out).unwrap())
+    }
+
+    #[test]
+    fn prints_one_json_array_per_segment() {
+        let out = run_args(&[
+            "voxkit", "line", "0", "0", "0", "1", "0", "1", "0", "0", "0", "-2", "0", "0",
+        ])
+        .unwrap();
+        assert_eq!(out, "[[0,0,0],[1,0,1]]\n[[0,0,0],[-1,0,0],[-2,0,0]]\n");
+        let out = run_args(&[
+            "voxkit", "line", "--algo", "tripod", "0", "0", "0", "1", "1", "0",
+        ])
+        .unwrap();
+        let v: Vec<[i32; 3]> = serde_json::from_str(out.trim()).unwrap();
+        assert_eq!(v.len(), 3);
+    }
+
+    #[test]
+    fn bad_segments_are_exit_code_2() {
+        for args in [
+            &["voxkit", "line", "0", "0", "0", "1", "0"][..],
+            &["voxkit", "line", "0", "0", "0", "1", "0", "nan"][..],
+            &["voxkit", "line", "0", "0", "0", "1", "0", "3e9"][..],
+        ] {
+            let e = run_args(args).unwrap_err();
+            assert_eq!(e.code, 2, "{args:?}");
+        }
+    }
+}

@@ -186,3 +186,39 @@ impl Iterator for Tripod6 {
 
 impl ExactSizeIterator for Tripod6 {}
 impl std::iter::FusedIterator for Tripod6 {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::line::line26::Mid26State;
+    use rand::{Rng, SeedableRng};
+
+    /// The `i64` and `i128` stepping states make the same decisions on
+    /// segments where both are valid (the `i128` path is the one long
+    /// segments take).
+    #[test]
+    fn narrow_and_wide_states_agree() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(64128);
+        let one = crate::fixed::ONE;
+        for _ in 0..300 {
+            let p = |rng: &mut rand_chacha::ChaCha8Rng| -> [i64; 3] {
+                std::array::from_fn(|_| rng.random_range(-300 * one..300 * one))
+            };
+            let seg = Segment::from_fixed(p(&mut rng), p(&mut rng)).unwrap();
+            let f = Frame::new(&seg);
+            assert!(!f.wide);
+            let mut a = TripodState::<i64>::at(&f, [0; 3]);
+            let mut b = TripodState::<i128>::at(&f, [0; 3]);
+            for _ in 0..f.tripod_steps() {
+                assert_eq!(a.step(), b.step());
+            }
+            if f.end[0] >= 1 {
+                let mut a = Mid26State::<i64>::at(&f, [0; 3]);
+                let mut b = Mid26State::<i128>::at(&f, [0; 3]);
+                for _ in 0..f.end[0] {
+                    assert_eq!(a.step(), b.step());
+                }
+            }
+        }
+    }
+}
