@@ -1,1 +1,259 @@
-fn main() {}
+//! Voxels/s of every line algorithm against `line_drawing` on the same
+//! random 64-voxel float segments (SplitMix64 generator of the peer harness
+//! /work/shared/peers/rust-lines), in three settings: generation only, writes
+//! into a cache-resident 64³ u8 grid, writes into a 512³ u8 grid (plus a
+//! store-only baseline writing a precomputed index list of the same voxels).
+
+use std::hint::black_box;
+use std::ops::ControlFlow;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use line_drawing::{Bresenham3d, VoxelOrigin, WalkVoxels};
+use voxkit::Connectivity;
+use voxkit::grid::{DenseGrid, MemoryLimit};
+use voxkit::line::amanatides_woo::aw_line;
+use voxkit::line::{Line18, Line26, OCCUPIED, Segment, Tripod6, adaptive_walk, walk_mut};
+
+struct SplitMix64(u64);
+impl SplitMix64 {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+}
+
+/// `n` segments of length `len` inside `[0.5, g − 0.5)³` (grid units with
+/// corner-origin voxels, as the peer), fixed seed.
+fn segments(n: usize, len: f64, g: f64, seed: u64) -> Vec<([f64; 3], [f64; 3])> {
+    let mut rng = SplitMix64(seed);
+    let (lo, hi) = (0.5, g - 0.5);
+    let inside = |p: &[f64; 3]| p.iter().all(|&c| c >= lo && c < hi);
+    let mut out = Vec::with_capacity(n);
+    while out.len() < n {
+        let a = [0; 3].map(|_| lo + (hi - lo) * rng.unit());
+        let z = 2.0 * rng.unit() - 1.0;
+        let phi = std::f64::consts::TAU * rng.unit();
+        let r = (1.0 - z * z).sqrt();
+        let d = [r * phi.cos(), r * phi.sin(), z];
+        let b = [a[0] + len * d[0], a[1] + len * d[1], a[2] + len * d[2]];
+        if inside(&a) && inside(&b) {
+            out.push((a, b));
+        }
+    }
+    out
+}
+
+/// Our centred convention: corner-origin coordinate `p` is grid `p − 0.5`.
+fn ours(s: &[([f64; 3], [f64; 3])]) -> Vec<Segment> {
+    s.iter()
+        .map(|(a, b)| Segment::from_f64(a.map(|c| c - 0.5), b.map(|c| c - 0.5)).unwrap())
+        .collect()
+}
+
+type IPair = ((i32, i32, i32), (i32, i32, i32));
+
+fn floored(s: &[([f64; 3], [f64; 3])]) -> Vec<IPair> {
+    let f = |p: [f64; 3]| {
+        (
+            p[0].floor() as i32,
+            p[1].floor() as i32,
+            p[2].floor() as i32,
+        )
+    };
+    s.iter().map(|(a, b)| (f(*a), f(*b))).collect()
+}
+
+fn bench_size(c: &mut Criterion, g: usize, name: &str) {
+    let raw = segments(2000, 64.0, g as f64, 42);
+    let segs = ours(&raw);
+    let ints = floored(&raw);
+    let total26: u64 = segs.iter().map(|s| Line26::new(s).len() as u64).sum();
+    let total6: u64 = segs.iter().map(|s| Tripod6::new(s).len() as u64).sum();
+    let total18: u64 = segs.iter().map(|s| Line18::new(s).count() as u64).sum();
+    let totalb: u64 = ints
+        .iter()
+        .map(|&(a, b)| Bresenham3d::new(a, b).count() as u64)
+        .sum();
+    let totalw: u64 = raw
+        .iter()
+        .map(|(a, b)| {
+            WalkVoxels::<f64, i32>::new(
+                (a[0], a[1], a[2]),
+                (b[0], b[1], b[2]),
+                &VoxelOrigin::Corner,
+            )
+            .count() as u64
+        })
+        .sum();
+
+    if g == 64 {
+        let mut grp = c.benchmark_group("generate");
+        grp.throughput(Throughput::Elements(total26));
+        grp.bench_function("line26", |bn| {
+            bn.iter(|| {
+                black_box(&segs)
+                    .iter()
+                    .map(|s| Line26::new(s).fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z))
+                    .fold(0, |a, b| a ^ b)
+            })
+        });
+        grp.throughput(Throughput::Elements(totalb));
+        grp.bench_function("bresenham3d", |bn| {
+            bn.iter(|| {
+                black_box(&ints)
+                    .iter()
+                    .map(|&(a, b)| Bresenham3d::new(a, b).fold(0, |acc, v| acc ^ v.0 ^ v.1 ^ v.2))
+                    .fold(0, |a, b| a ^ b)
+            })
+        });
+        grp.throughput(Throughput::Elements(total6));
+        grp.bench_function("tripod6", |bn| {
+            bn.iter(|| {
+                black_box(&segs)
+                    .iter()
+                    .map(|s| Tripod6::new(s).fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z))
+                    .fold(0, |a, b| a ^ b)
+            })
+        });
+        grp.throughput(Throughput::Elements(total18));
+        grp.bench_function("line18", |bn| {
+            bn.iter(|| {
+                black_box(&segs)
+                    .iter()
+                    .map(|s| Line18::new(s).fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z))
+                    .fold(0, |a, b| a ^ b)
+            })
+        });
+        grp.throughput(Throughput::Elements(totalw));
+        grp.bench_function("walkvoxels_f64", |bn| {
+            bn.iter(|| {
+                black_box(&raw)
+                    .iter()
+                    .map(|(a, b)| {
+                        WalkVoxels::<f64, i32>::new(
+                            (a[0], a[1], a[2]),
+                            (b[0], b[1], b[2]),
+                            &VoxelOrigin::Corner,
+                        )
+                        .fold(0, |acc, v| acc ^ v.0 ^ v.1 ^ v.2)
+                    })
+                    .fold(0, |a, b| a ^ b)
+            })
+        });
+        grp.throughput(Throughput::Elements(total6));
+        grp.bench_function("amanatides_woo", |bn| {
+            bn.iter(|| {
+                black_box(&segs)
+                    .iter()
+                    .map(|s| {
+                        let p = |q: [i64; 3]| {
+                            glam::DVec3::new(
+                                voxkit::fixed::to_f64(q[0]),
+                                voxkit::fixed::to_f64(q[1]),
+                                voxkit::fixed::to_f64(q[2]),
+                            )
+                        };
+                        aw_line(p(s.a()), p(s.b()))
+                            .unwrap()
+                            .fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z)
+                    })
+                    .fold(0, |a, b| a ^ b)
+            })
+        });
+        grp.finish();
+    }
+
+    let mut grid = DenseGrid::new([g, g, g], 0u8, MemoryLimit::DEFAULT).unwrap();
+    let mut grp = c.benchmark_group(name);
+    grp.sample_size(10);
+    for (label, conn, total) in [
+        ("line26", Connectivity::TwentySix, total26),
+        ("line18", Connectivity::Eighteen, total18),
+        ("tripod6", Connectivity::Six, total6),
+    ] {
+        grp.throughput(Throughput::Elements(total));
+        grp.bench_function(label, |bn| {
+            bn.iter(|| {
+                for s in black_box(&segs) {
+                    walk_mut(&mut grid, s, conn, |c| {
+                        *c = 1;
+                        ControlFlow::Continue(())
+                    });
+                }
+            })
+        });
+        // store-only baseline: the same voxels as a precomputed index list
+        let mut idx = Vec::with_capacity(total as usize);
+        for s in &segs {
+            walk_mut(&mut grid, s, conn, |_| ControlFlow::Continue(()));
+            let it: Box<dyn Iterator<Item = glam::IVec3>> = match conn {
+                Connectivity::Six => Box::new(Tripod6::new(s)),
+                Connectivity::Eighteen => Box::new(Line18::new(s)),
+                Connectivity::TwentySix => Box::new(Line26::new(s)),
+            };
+            idx.extend(it.map(|v| grid.linear_index(v).unwrap()));
+        }
+        grp.bench_function(format!("store_only_{label}"), |bn| {
+            bn.iter(|| {
+                let cells = grid.as_mut_slice();
+                for &i in black_box(&idx) {
+                    cells[i] = 1;
+                }
+            })
+        });
+    }
+    grp.throughput(Throughput::Elements(total6));
+    grp.bench_function("adaptive_no_flags_read", |bn| {
+        bn.iter(|| {
+            let mut n = 0u64;
+            for s in black_box(&segs) {
+                adaptive_walk(&grid, s, |c| {
+                    n += u64::from(*c & OCCUPIED);
+                    ControlFlow::Continue(())
+                });
+            }
+            n
+        })
+    });
+    grp.throughput(Throughput::Elements(totalb));
+    grp.bench_function("bresenham3d", |bn| {
+        bn.iter(|| {
+            let cells = grid.as_mut_slice();
+            for &(a, b) in black_box(&ints) {
+                for (x, y, z) in Bresenham3d::new(a, b) {
+                    cells[x as usize + g * (y as usize + g * z as usize)] = 1;
+                }
+            }
+        })
+    });
+    grp.throughput(Throughput::Elements(totalw));
+    grp.bench_function("walkvoxels_f64", |bn| {
+        bn.iter(|| {
+            let cells = grid.as_mut_slice();
+            for (a, b) in black_box(&raw) {
+                for (x, y, z) in WalkVoxels::<f64, i32>::new(
+                    (a[0], a[1], a[2]),
+                    (b[0], b[1], b[2]),
+                    &VoxelOrigin::Corner,
+                ) {
+                    cells[x as usize + g * (y as usize + g * z as usize)] = 1;
+                }
+            }
+        })
+    });
+    grp.finish();
+}
+
+fn lines(c: &mut Criterion) {
+    bench_size(c, 64, "grid64");
+    bench_size(c, 512, "grid512");
+}
+
+criterion_group!(benches, lines);
+criterion_main!(benches);

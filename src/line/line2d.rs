@@ -129,7 +129,7 @@ impl Octant {
     }
 
     #[inline(always)]
-    fn to_world(self, u: i64, v: i64) -> Pixel {
+    fn voxel_world(self, u: i64, v: i64) -> Pixel {
         self.origin + self.du * u + self.dv * v
     }
 }
@@ -165,7 +165,7 @@ impl Line8Stepper {
     /// The current pixel.
     #[inline]
     pub fn pixel(&self) -> Pixel {
-        self.oct.to_world(self.u, self.v)
+        self.oct.voxel_world(self.u, self.v)
     }
 
     /// Steps left to the end pixel: `A − u`.
@@ -225,7 +225,7 @@ impl Line4Stepper {
     /// The current pixel.
     #[inline]
     pub fn pixel(&self) -> Pixel {
-        self.oct.to_world(self.u, self.v)
+        self.oct.voxel_world(self.u, self.v)
     }
 
     /// Steps left to the end pixel: `(A − u) + (B − v)`.

@@ -5,6 +5,7 @@ mod bricks;
 mod conservative;
 mod formats;
 mod line2d;
+mod lines;
 mod mesh_io;
 mod raster;
 mod solid;

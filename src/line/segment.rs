@@ -1,0 +1,374 @@
+//! The segment type shared by every exact line algorithm, and the
+//! mirrored/permuted *local frame* in which they all step.
+//!
+//! # Local frame
+//! Every axis is mirrored so that the direction is non-negative, and the axes
+//! are permuted so that local axis `m` (index 0) has the largest direction
+//! component; `u`, `v` (indices 1, 2) are the other two in world order.
+//! Local coordinates are measured from the centre of the start voxel `V0`, in
+//! fixed point (`S = 2^FRAC_BITS` per voxel): the start point lies in
+//! `[-S/2, S/2]` on every axis.
+//!
+//! # Decision variables
+//! For an ordered pair of local axes `(i, j)` and a voxel `c`, with
+//! `r_k = (c_k + 1/2)·S − a_k` the distance from the start point to the exit
+//! face of `c` along `k`, the tripod decision variable is
+//! `e_ij = D_j·r_i − D_i·r_j`; `e_ij < 0` iff the line leaves `c` through its
+//! `i` face before its `j` face. The 26-line's midpoint variable is
+//! `E_ij = e_ij + D_j·S/2` (eq. 9 of Cohen-Or & Kaufman with scale `S`).
+//!
+//! # Tie rule (world shift)
+//! Exact ties (the line passing through a voxel edge or corner, or a column
+//! centre exactly between two voxels) are resolved as if the segment were
+//! shifted by the infinitesimal world vector `(ε³, ε, ε²)`. For a pair the
+//! shift adds `p_ij = −D_j·s_i·δ_i + D_i·s_j·δ_j` to `e_ij`; its sign is that
+//! of the coefficient of the larger infinitesimal (`y` > `z` > `x`). Since all
+//! decision variables are integers, `e + p < 0` is `e − [p < 0] < 0`: each
+//! pair carries a *bias* of 0 or 1 subtracted once at initialisation. The
+//! shifted segment has the same endpoint voxels as the original (the voxel rule
+//! `floor(p + 1/2)` rounds boundary points up), passes through no edge or
+//! corner, and its voxel set does not depend on the direction of travel.
+
+use glam::IVec3;
+
+use crate::error::{Result, VoxkitError};
+use crate::fixed::{self, FixedPoint, HALF, ONE};
+use crate::grid::Voxel;
+
+/// Largest supported fixed-point coordinate magnitude (`2^30` voxels).
+pub const MAX_FIXED: i64 = 1 << (30 + fixed::FRAC_BITS);
+
+/// Direction components (fixed point) up to this bound run on `i64` decision
+/// variables; longer segments (more than 2^20 voxels along an axis) use
+/// `i128`. Decision variables stay within `3·S·max(D) ≤ 3·2^60 < 2^62`.
+pub const NARROW_MAX_DELTA: i64 = 1 << 40;
+
+/// A validated 3D segment in grid space, endpoints in fixed point
+/// (see [`crate::fixed`]).
+///
+/// ```
+/// use voxkit::line::Segment;
+/// let s = Segment::from_f64([0.2, 0.0, 0.0], [3.0, -1.6, 0.5]).unwrap();
+/// assert_eq!(s.start_voxel().to_array(), [0, 0, 0]);
+/// assert_eq!(s.end_voxel().to_array(), [3, -2, 1]);
+/// assert!(Segment::from_f64([f64::NAN, 0.0, 0.0], [0.0; 3]).is_err());
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Segment {
+    a: FixedPoint,
+    b: FixedPoint,
+}
+
+impl Segment {
+    /// A segment from fixed-point endpoints; every coordinate must satisfy
+    /// `|x| ≤ 2^30` voxels ([`MAX_FIXED`]).
+    pub fn from_fixed(a: FixedPoint, b: FixedPoint) -> Result<Self> {
+        for p in [a, b] {
+            if p.iter().any(|c| c.unsigned_abs() > MAX_FIXED as u64) {
+                return Err(VoxkitError::invalid(format!(
+                    "fixed-point endpoint {p:?} is outside the supported range ±2^30 voxels"
+                )));
+            }
+        }
+        Ok(Segment { a, b })
+    }
+
+    /// A segment from grid-space `f64` endpoints, rounded to the fixed-point
+    /// lattice; rejects NaN, infinities and coordinates beyond `±2^30`.
+    pub fn from_f64(a: [f64; 3], b: [f64; 3]) -> Result<Self> {
+        Self::from_fixed(fixed::point_to_fixed(a)?, fixed::point_to_fixed(b)?)
+    }
+
+    /// A segment between two voxel centres.
+    pub fn from_voxels(a: Voxel, b: Voxel) -> Result<Self> {
+        let f = |v: Voxel| [v.x as i64 * ONE, v.y as i64 * ONE, v.z as i64 * ONE];
+        Self::from_fixed(f(a), f(b))
+    }
+
+    /// Start point (fixed point).
+    #[inline]
+    pub fn a(&self) -> FixedPoint {
+        self.a
+    }
+
+    /// End point (fixed point).
+    #[inline]
+    pub fn b(&self) -> FixedPoint {
+        self.b
+    }
+
+    /// The segment traversed the other way.
+    #[inline]
+    pub fn reversed(&self) -> Self {
+        Segment {
+            a: self.b,
+            b: self.a,
+        }
+    }
+
+    /// The voxel containing the start point (`floor(a + 1/2)`).
+    pub fn start_voxel(&self) -> Voxel {
+        voxel_of_point(self.a)
+    }
+
+    /// The voxel containing the end point.
+    pub fn end_voxel(&self) -> Voxel {
+        voxel_of_point(self.b)
+    }
+
+    /// Whether both endpoints are voxel centres.
+    pub fn has_integer_endpoints(&self) -> bool {
+        self.a.iter().chain(self.b.iter()).all(|c| c % ONE == 0)
+    }
+}
+
+fn voxel_of_point(p: FixedPoint) -> Voxel {
+    IVec3::new(
+        fixed::voxel_of(p[0]) as i32,
+        fixed::voxel_of(p[1]) as i32,
+        fixed::voxel_of(p[2]) as i32,
+    )
+}
+
+/// An integer type for decision variables: `i64` when the segment's bound
+/// allows it, `i128` otherwise. Chosen once per segment.
+pub trait DecisionInt:
+    Copy
+    + Ord
+    + core::fmt::Debug
+    + core::ops::Add<Output = Self>
+    + core::ops::Sub<Output = Self>
+    + core::ops::AddAssign
+    + core::ops::SubAssign
+{
+    /// Zero.
+    const ZERO: Self;
+    /// Narrows an exact `i128` value; the caller has proved it fits.
+    fn from_i128(v: i128) -> Self;
+}
+
+impl DecisionInt for i64 {
+    const ZERO: Self = 0;
+    #[inline(always)]
+    fn from_i128(v: i128) -> Self {
+        debug_assert!(
+            i64::try_from(v).is_ok(),
+            "decision variable {v} exceeds i64"
+        );
+        v as i64
+    }
+}
+
+impl DecisionInt for i128 {
+    const ZERO: Self = 0;
+    #[inline(always)]
+    fn from_i128(v: i128) -> Self {
+        v
+    }
+}
+
+/// Shift order of the tie rule: `y` has the largest infinitesimal, then `z`,
+/// then `x`.
+const SHIFT_RANK: [u8; 3] = [2, 0, 1];
+
+/// The mirrored, permuted frame of a segment (see the module docs).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Frame {
+    /// World start voxel.
+    pub v0: [i64; 3],
+    /// World axis of each local axis (m, u, v).
+    pub perm: [usize; 3],
+    /// World sign (+1 / −1) of each local axis.
+    pub sign: [i64; 3],
+    /// Local direction components `D ≥ 0` (fixed point), `d[0]` the largest.
+    pub d: [i64; 3],
+    /// Local start point relative to the centre of `V0` (fixed point).
+    pub a: [i64; 3],
+    /// Local end voxel (`≥ 0` on every axis).
+    pub end: [i64; 3],
+    /// Tie biases of the pairs (m,u), (m,v), (v,u).
+    pub bias: [i64; 3],
+    /// `pneg[i][j]`: the tie-rule perturbation of `e_ij` is negative.
+    pub pneg: [[bool; 3]; 3],
+    /// Whether the decision variables need `i128`.
+    pub wide: bool,
+}
+
+/// Local pair indices of the three decision variables: `e_mu`, `e_mv`, `e_vu`.
+pub(crate) const PAIRS: [(usize, usize); 3] = [(0, 1), (0, 2), (2, 1)];
+
+impl Frame {
+    pub fn new(seg: &Segment) -> Self {
+        let (a, b) = (seg.a, seg.b);
+        let v0w = [
+            fixed::voxel_of(a[0]),
+            fixed::voxel_of(a[1]),
+            fixed::voxel_of(a[2]),
+        ];
+        let v1w = [
+            fixed::voxel_of(b[0]),
+            fixed::voxel_of(b[1]),
+            fixed::voxel_of(b[2]),
+        ];
+        let wsign: [i64; 3] = std::array::from_fn(|i| if b[i] < a[i] { -1 } else { 1 });
+        let wd: [i64; 3] = std::array::from_fn(|i| (b[i] - a[i]).abs());
+        // Major axis: the largest component, first in x, y, z order on ties.
+        let mut m = 0;
+        for i in 1..3 {
+            if wd[i] > wd[m] {
+                m = i;
+            }
+        }
+        let others: Vec<usize> = (0..3).filter(|&i| i != m).collect();
+        let perm = [m, others[0], others[1]];
+        let sign = perm.map(|w| wsign[w]);
+        let d = perm.map(|w| wd[w]);
+        let la = perm.map(|w| wsign[w] * (a[w] - v0w[w] * ONE));
+        let end = perm.map(|w| wsign[w] * (v1w[w] - v0w[w]));
+        let pneg_of = |i: usize, j: usize| -> bool {
+            let (wi, wj) = (perm[i], perm[j]);
+            // p = −D_j s_i δ_i + D_i s_j δ_j; the dominant infinitesimal decides.
+            let ci = -(wd[wj] as i128) * wsign[wi] as i128;
+            let cj = wd[wi] as i128 * wsign[wj] as i128;
+            let (first, second) = if SHIFT_RANK[wi] < SHIFT_RANK[wj] {
+                (ci, cj)
+            } else {
+                (cj, ci)
+            };
+            let s = if first != 0 { first } else { second };
+            s < 0
+        };
+        let pneg: [[bool; 3]; 3] =
+            std::array::from_fn(|i| std::array::from_fn(|j| i != j && pneg_of(i, j)));
+        let bias = PAIRS.map(|(i, j)| i64::from(pneg[i][j]));
+        Frame {
+            v0: v0w,
+            perm,
+            sign,
+            d,
+            a: la,
+            end,
+            bias,
+            pneg,
+            wide: d[0] > NARROW_MAX_DELTA,
+        }
+    }
+
+    /// World voxel of local voxel `c`.
+    #[inline]
+    pub fn voxel_world(&self, c: [i64; 3]) -> Voxel {
+        let mut w = self.v0;
+        for k in 0..3 {
+            w[self.perm[k]] += self.sign[k] * c[k];
+        }
+        IVec3::new(w[0] as i32, w[1] as i32, w[2] as i32)
+    }
+
+    /// World unit step of each local axis.
+    pub fn world_steps(&self) -> [IVec3; 3] {
+        std::array::from_fn(|k| {
+            let mut s = IVec3::ZERO;
+            s[self.perm[k]] = self.sign[k] as i32;
+            s
+        })
+    }
+
+    /// World step of a local move mask (bit k set: +1 along local axis k).
+    pub fn mask_step(&self, mask: u8) -> IVec3 {
+        let s = self.world_steps();
+        let mut w = IVec3::ZERO;
+        for (k, sk) in s.iter().enumerate() {
+            if mask & (1 << k) != 0 {
+                w += *sk;
+            }
+        }
+        w
+    }
+
+    /// Distance from the start point to the exit face of local voxel `c` along
+    /// local axis `k`, fixed point.
+    #[inline]
+    pub fn r(&self, k: usize, ck: i64) -> i128 {
+        ck as i128 * ONE as i128 + HALF as i128 - self.a[k] as i128
+    }
+
+    /// Biased tripod decision variables `[e_mu, e_mv, e_vu]` at local voxel `c`.
+    pub fn tripod_e(&self, c: [i64; 3]) -> [i128; 3] {
+        let mut out = [0i128; 3];
+        for (n, &(i, j)) in PAIRS.iter().enumerate() {
+            out[n] = self.d[j] as i128 * self.r(i, c[i])
+                - self.d[i] as i128 * self.r(j, c[j])
+                - self.bias[n] as i128;
+        }
+        out
+    }
+
+    /// Biased 26-line midpoint variables `[E_mu, E_mv]` at local voxel `c`:
+    /// `E ≥ 0` iff the next column's centre rounds one voxel up on that axis.
+    pub fn mid_e(&self, c: [i64; 3]) -> [i128; 2] {
+        let e = self.tripod_e(c);
+        [
+            e[0] + self.d[1] as i128 * HALF as i128,
+            e[1] + self.d[2] as i128 * HALF as i128,
+        ]
+    }
+
+    /// The 26-line's voxel of column `c` (local): the line's minor
+    /// coordinates at the column centre, rounded by the tie rule.
+    pub fn centre(&self, c: i64) -> [i64; 3] {
+        let s = ONE as i128;
+        let dm = self.d[0] as i128;
+        let am = self.a[0] as i128;
+        let minor = |k: usize, bias: i64| -> i64 {
+            let n = self.d[k] as i128 * (c as i128 * s - am)
+                + dm * self.a[k] as i128
+                + dm * HALF as i128
+                - bias as i128;
+            n.div_euclid(dm * s) as i64
+        };
+        [c, minor(1, self.bias[0]), minor(2, self.bias[1])]
+    }
+
+    /// Number of tripod steps (faces crossed).
+    pub fn tripod_steps(&self) -> u64 {
+        self.end.iter().map(|&e| e as u64).sum()
+    }
+
+    /// The local move (bit mask) of one tripod step from biased variables.
+    #[inline]
+    pub fn tripod_choice(e: [i128; 3]) -> usize {
+        if e[0] < 0 {
+            if e[1] < 0 { 0 } else { 2 }
+        } else if e[2] < 0 {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// Advances exact (`i128`) tripod variables by a step along local axis `k`.
+    pub fn tripod_advance(&self, e: &mut [i128; 3], k: usize) {
+        let s = ONE as i128;
+        let [dm, du, dv] = self.d.map(|x| x as i128 * s);
+        match k {
+            0 => {
+                e[0] += du;
+                e[1] += dv;
+            }
+            1 => {
+                e[0] -= dm;
+                e[2] -= dv;
+            }
+            _ => {
+                e[1] -= dm;
+                e[2] += du;
+            }
+        }
+    }
+}
+
+/// Whether two local voxels are distinct 26-neighbours (or equal).
+#[inline]
+pub(crate) fn within26(p: [i64; 3], q: [i64; 3]) -> bool {
+    (0..3).all(|k| (p[k] - q[k]).abs() <= 1)
+}

@@ -1,0 +1,333 @@
+//! Walking a line through a [`DenseGrid`] with a visitor that can stop early.
+//!
+//! The segment is clipped to the grid box once ([`super::clip`]); the stepping
+//! state is started at the first in-grid voxel in O(1) (the line is not
+//! redrawn), and the loop moves a linear index by the grid's precomputed
+//! neighbour offsets: no bounds check and no 3D→1D recomputation per voxel.
+//! The walk visits exactly the iterator's in-grid voxels, in order.
+
+use std::ops::ControlFlow;
+
+use crate::grid::{DenseGrid, Voxel};
+use crate::metric::Connectivity;
+
+use super::clip::{GridBox, tripod_range};
+use super::line18::Line18;
+use super::line26::{AnyMid, Cursor26, Mid26State, Plan26};
+use super::segment::{DecisionInt, Frame, Segment};
+use super::tripod6::{AnyTripod, TripodState};
+
+/// Where a walk ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WalkOutcome {
+    /// The visitor returned `Break` at this voxel.
+    Stopped {
+        /// Linear index of the voxel in the grid.
+        index: usize,
+        /// The voxel.
+        voxel: Voxel,
+    },
+    /// The walk visited every in-grid voxel of the line.
+    Completed {
+        /// Number of voxels visited.
+        visited: u64,
+    },
+}
+
+impl WalkOutcome {
+    /// The voxel where the walk stopped, if it did.
+    pub fn stopped_at(&self) -> Option<Voxel> {
+        match self {
+            WalkOutcome::Stopped { voxel, .. } => Some(*voxel),
+            WalkOutcome::Completed { .. } => None,
+        }
+    }
+}
+
+/// Linear-index offsets of the three local axes and of the eight local move
+/// masks, for a segment's frame in a grid.
+pub(crate) struct Offsets {
+    pub axis: [isize; 3],
+    pub mask: [isize; 8],
+}
+
+impl Offsets {
+    pub(crate) fn new(table: &[isize; 27], f: &Frame) -> Self {
+        let steps = f.world_steps();
+        let axis = steps.map(|s| table[crate::grid::neighbour_slot(s.x, s.y, s.z)]);
+        let mask = std::array::from_fn(|m| {
+            (0..3)
+                .filter(|k| m >> k & 1 == 1)
+                .map(|k| axis[k])
+                .sum::<isize>()
+        });
+        Offsets { axis, mask }
+    }
+}
+
+/// Runs `n ≥ 1` tripod voxels from `idx`. `Err(i)` = stopped at index `i`.
+#[inline(always)]
+fn run_tripod<T: DecisionInt, F: FnMut(usize) -> ControlFlow<()>>(
+    mut s: TripodState<T>,
+    mut idx: usize,
+    n: u64,
+    off: &[isize; 3],
+    visit: &mut F,
+) -> Result<u64, usize> {
+    if visit(idx).is_break() {
+        return Err(idx);
+    }
+    for _ in 1..n {
+        let k = s.step();
+        idx = idx.wrapping_add_signed(off[k]);
+        if visit(idx).is_break() {
+            return Err(idx);
+        }
+    }
+    Ok(n)
+}
+
+#[inline(always)]
+fn run_mid<T: DecisionInt, F: FnMut(usize) -> ControlFlow<()>>(
+    s: &mut Mid26State<T>,
+    idx: &mut usize,
+    n: u64,
+    off: &[isize; 8],
+    visit: &mut F,
+) -> Result<(), usize> {
+    for _ in 0..n {
+        let m = s.step();
+        *idx = idx.wrapping_add_signed(off[m]);
+        if visit(*idx).is_break() {
+            return Err(*idx);
+        }
+    }
+    Ok(())
+}
+
+fn walk_tripod<F: FnMut(usize) -> ControlFlow<()>>(
+    dims: crate::grid::Dims,
+    off: &Offsets,
+    f: &Frame,
+    start_index: impl Fn(Voxel) -> usize,
+    visit: &mut F,
+) -> Result<u64, usize> {
+    let Some((c, n)) = tripod_range(f, &GridBox::from_dims(dims)) else {
+        return Ok(0);
+    };
+    let idx = start_index(f.voxel_world(c));
+    match AnyTripod::at(f, c) {
+        AnyTripod::Narrow(s) => run_tripod(s, idx, n, &off.axis, visit),
+        AnyTripod::Wide(s) => run_tripod(s, idx, n, &off.axis, visit),
+    }
+}
+
+fn walk_26<F: FnMut(usize) -> ControlFlow<()>>(
+    dims: crate::grid::Dims,
+    off: &Offsets,
+    f: &Frame,
+    start_index: impl Fn(Voxel) -> usize,
+    visit: &mut F,
+) -> Result<u64, usize> {
+    let plan = Plan26::new(f);
+    let Some((p0, p1)) = plan.range(f, &GridBox::from_dims(dims)) else {
+        return Ok(0);
+    };
+    let total = p1 - p0 + 1;
+    let mut cur = Cursor26::at(f, plan, p0);
+    let mut idx = start_index(f.voxel_world(plan.voxel_at(f, p0)));
+    if visit(idx).is_break() {
+        return Err(idx);
+    }
+    let mut left = total - 1;
+    while left > 0 && cur.pre_i < plan.pre.len {
+        idx = idx.wrapping_add_signed(off.mask[cur.advance()]);
+        left -= 1;
+        if visit(idx).is_break() {
+            return Err(idx);
+        }
+    }
+    let n = left.min(cur.mid_left);
+    if n > 0 {
+        match &mut cur.mid {
+            AnyMid::Narrow(s) => run_mid(s, &mut idx, n, &off.mask, visit)?,
+            AnyMid::Wide(s) => run_mid(s, &mut idx, n, &off.mask, visit)?,
+        }
+        cur.mid_left -= n;
+        left -= n;
+    }
+    while left > 0 {
+        idx = idx.wrapping_add_signed(off.mask[cur.advance()]);
+        left -= 1;
+        if visit(idx).is_break() {
+            return Err(idx);
+        }
+    }
+    Ok(total)
+}
+
+fn walk_18<F: FnMut(usize) -> ControlFlow<()>>(
+    dims: crate::grid::Dims,
+    off: &Offsets,
+    f: &Frame,
+    start_index: impl Fn(Voxel) -> usize,
+    visit: &mut F,
+) -> Result<u64, usize> {
+    // The 18-line is a subsequence of the tripod path, whose in-grid voxels
+    // are the tripod indices (sum of local coordinates) ts..=te.
+    let Some((c, n)) = tripod_range(f, &GridBox::from_dims(dims)) else {
+        return Ok(0);
+    };
+    let ts: i64 = c.iter().sum();
+    let te = ts + n as i64 - 1;
+    let plan = Plan26::new(f);
+    // Last 26-line position whose tripod index is ≤ ts (binary search: the
+    // index grows along the line).
+    let sum_at = |p: u64| plan.voxel_at(f, p).iter().sum::<i64>();
+    let (mut lo, mut hi) = (0u64, plan.count() - 1);
+    while lo < hi {
+        let mid = lo + (hi - lo).div_ceil(2);
+        if sum_at(mid) <= ts {
+            lo = mid
+        } else {
+            hi = mid - 1
+        }
+    }
+    let mut line = Line18::at_position(f, plan, lo);
+    let mut prev: Option<[i64; 3]> = None;
+    let mut idx = 0usize;
+    let mut visited = 0u64;
+    while let Some(v) = line.next_local() {
+        idx = match prev {
+            None => start_index(f.voxel_world(v)),
+            Some(p) => {
+                let mask = (0..3).fold(0usize, |m, k| m | (((v[k] - p[k]) as usize) << k));
+                idx.wrapping_add_signed(off.mask[mask])
+            }
+        };
+        prev = Some(v);
+        let t: i64 = v.iter().sum();
+        if t > te {
+            break;
+        }
+        if t >= ts {
+            visited += 1;
+            if visit(idx).is_break() {
+                return Err(idx);
+            }
+        }
+    }
+    Ok(visited)
+}
+
+/// What a walk needs from a grid, copied out so that no borrow of the grid
+/// is alive while cells are visited.
+#[derive(Clone, Copy)]
+pub(crate) struct GridShape {
+    pub dims: crate::grid::Dims,
+    pub table: [isize; 27],
+}
+
+impl GridShape {
+    pub(crate) fn of<T>(grid: &DenseGrid<T>) -> Self {
+        GridShape {
+            dims: grid.dims(),
+            table: *grid.neighbour_offsets(),
+        }
+    }
+
+    /// Linear index of `v` in wrapping arithmetic: exact for in-grid voxels,
+    /// and affine in `v`, so offsets applied to an out-of-grid start voxel
+    /// reach the exact index of an in-grid one.
+    pub(crate) fn index(&self, v: Voxel) -> usize {
+        let [nx, ny, _] = self.dims;
+        (v.x as isize as usize).wrapping_add(nx.wrapping_mul(
+            (v.y as isize as usize).wrapping_add(ny.wrapping_mul(v.z as isize as usize)),
+        ))
+    }
+}
+
+fn dispatch<F: FnMut(usize) -> ControlFlow<()>>(
+    shape: GridShape,
+    seg: &Segment,
+    conn: Connectivity,
+    visit: &mut F,
+) -> Result<u64, usize> {
+    let f = Frame::new(seg);
+    let off = Offsets::new(&shape.table, &f);
+    let dims = shape.dims;
+    let start = |v: Voxel| shape.index(v);
+    match conn {
+        Connectivity::Six => walk_tripod(dims, &off, &f, start, visit),
+        Connectivity::TwentySix => walk_26(dims, &off, &f, start, visit),
+        Connectivity::Eighteen => walk_18(dims, &off, &f, start, visit),
+    }
+}
+
+fn outcome<T>(grid: &DenseGrid<T>, r: Result<u64, usize>) -> WalkOutcome {
+    match r {
+        Ok(visited) => WalkOutcome::Completed { visited },
+        Err(index) => WalkOutcome::Stopped {
+            index,
+            voxel: grid.voxel_of_index(index),
+        },
+    }
+}
+
+/// Walks the `conn`-connected line of `seg` (26: [`super::Line26`],
+/// 18: [`super::Line18`], 6: [`super::Tripod6`]) through `grid`, calling
+/// `visit` on each in-grid cell in order until it returns `Break`.
+///
+/// ```
+/// use std::ops::ControlFlow;
+/// use voxkit::grid::{DenseGrid, MemoryLimit};
+/// use voxkit::line::{walk_mut, Segment, WalkOutcome};
+/// use voxkit::Connectivity;
+/// let mut g = DenseGrid::new([8, 8, 8], 0u8, MemoryLimit::DEFAULT).unwrap();
+/// let s = Segment::from_f64([-3.0, 1.0, 1.0], [20.0, 4.0, 2.0]).unwrap();
+/// let out = walk_mut(&mut g, &s, Connectivity::Six, |c| {
+///     *c += 1;
+///     ControlFlow::Continue(())
+/// });
+/// assert!(matches!(out, WalkOutcome::Completed { visited } if visited >= 8));
+/// ```
+pub fn walk_mut<T>(
+    grid: &mut DenseGrid<T>,
+    seg: &Segment,
+    conn: Connectivity,
+    mut visit: impl FnMut(&mut T) -> ControlFlow<()>,
+) -> WalkOutcome {
+    let shape = GridShape::of(grid);
+    let len = grid.len();
+    let ptr = grid.as_mut_slice().as_mut_ptr();
+    let mut by_index = |i: usize| {
+        debug_assert!(i < len, "walk left the grid: index {i} of {len}");
+        // SAFETY: clipping guarantees that every visited voxel lies in the
+        // grid box, so `i` is the linear index of an in-grid cell (`i < len`);
+        // tested by `walk_matches_iterator_in_grid` (random segments partly
+        // outside the grid, debug builds assert the bound). No other
+        // reference to the cells exists while the walk runs.
+        visit(unsafe { &mut *ptr.add(i) })
+    };
+    let r = dispatch(shape, seg, conn, &mut by_index);
+    outcome(grid, r)
+}
+
+/// Read-only [`walk_mut`], for ray casting: `visit` sees each in-grid cell in
+/// order and returns `Break` to stop (first hit).
+pub fn walk<T>(
+    grid: &DenseGrid<T>,
+    seg: &Segment,
+    conn: Connectivity,
+    mut visit: impl FnMut(&T) -> ControlFlow<()>,
+) -> WalkOutcome {
+    let shape = GridShape::of(grid);
+    let cells = grid.as_slice();
+    let mut by_index = |i: usize| {
+        debug_assert!(i < cells.len());
+        // SAFETY: as in `walk_mut`: every visited index is in-grid.
+        visit(unsafe { cells.get_unchecked(i) })
+    };
+    let r = dispatch(shape, seg, conn, &mut by_index);
+    outcome(grid, r)
+}
