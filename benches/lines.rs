@@ -11,8 +11,10 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use line_drawing::{Bresenham3d, VoxelOrigin, WalkVoxels};
 use voxkit::Connectivity;
 use voxkit::grid::{DenseGrid, MemoryLimit};
-use voxkit::line::amanatides_woo::aw_line;
-use voxkit::line::{Line18, Line26, OCCUPIED, Segment, Tripod6, adaptive_walk, walk_mut};
+use voxkit::line::amanatides_woo::{aw_line, aw_walk_mut};
+use voxkit::line::{
+    Line18, Line26, OCCUPIED, Segment, Tripod6, WalkOutcome, adaptive_walk, walk_mut,
+};
 
 struct SplitMix64(u64);
 impl SplitMix64 {
@@ -70,7 +72,10 @@ fn floored(s: &[([f64; 3], [f64; 3])]) -> Vec<IPair> {
 }
 
 fn bench_size(c: &mut Criterion, g: usize, name: &str) {
-    let raw = segments(2000, 64.0, g as f64, 42);
+    // 64³: 2000 segments (cache-resident grid). 512³: 20000 segments spread
+    // over 128 MiB, so writes miss the caches as a real traversal would.
+    let n = if g == 64 { 2000 } else { 20000 };
+    let raw = segments(n, 64.0, g as f64, 42);
     let segs = ours(&raw);
     let ints = floored(&raw);
     let total26: u64 = segs.iter().map(|s| Line26::new(s).len() as u64).sum();
@@ -208,7 +213,18 @@ fn bench_size(c: &mut Criterion, g: usize, name: &str) {
             })
         });
     }
-    grp.throughput(Throughput::Elements(total6));
+    // The adaptive ray with no proximity flags runs 26-connected; count the
+    // voxels it actually visits.
+    let total_adaptive: u64 = segs
+        .iter()
+        .map(
+            |s| match adaptive_walk(&grid, s, |_| ControlFlow::Continue(())) {
+                WalkOutcome::Completed { visited } => visited,
+                WalkOutcome::Stopped { .. } => unreachable!("the visitor never stops"),
+            },
+        )
+        .sum();
+    grp.throughput(Throughput::Elements(total_adaptive));
     grp.bench_function("adaptive_no_flags_read", |bn| {
         bn.iter(|| {
             let mut n = 0u64;
@@ -219,6 +235,25 @@ fn bench_size(c: &mut Criterion, g: usize, name: &str) {
                 });
             }
             n
+        })
+    });
+    let aw_ends: Vec<(glam::DVec3, glam::DVec3)> = raw
+        .iter()
+        .map(|(a, b)| {
+            let p = |q: &[f64; 3]| glam::DVec3::new(q[0] - 0.5, q[1] - 0.5, q[2] - 0.5);
+            (p(a), p(b))
+        })
+        .collect();
+    grp.throughput(Throughput::Elements(total6));
+    grp.bench_function("amanatides_woo", |bn| {
+        bn.iter(|| {
+            for &(a, b) in black_box(&aw_ends) {
+                aw_walk_mut(&mut grid, a, b, |c| {
+                    *c = 1;
+                    ControlFlow::Continue(())
+                })
+                .unwrap();
+            }
         })
     });
     grp.throughput(Throughput::Elements(totalb));

@@ -9,6 +9,7 @@
 //! | [`fixed`] | fixed-point sub-voxel coordinates |
 //! | [`line`] | 3D lines (26, 18, tripod 6, Amanatides–Woo, adaptive) and 2D lines |
 //! | [`metric`] | the discrete distances d6, d18, d26 |
+//! | [`report`] | speed against error of every line algorithm (what `voxkit demo` prints) |
 //! | [`topology`] | oracles: connectivity, containment, touching |
 //! | [`io`] | atomic file writes; voxel files: binvox, MagicaVoxel .vox, .npy, NRRD |
 //! | [`mesh`] | triangle meshes + polylines; OBJ and glTF 2.0 loaders; grid fitting |
@@ -33,6 +34,7 @@ pub mod io;
 pub mod line;
 pub mod mesh;
 pub mod metric;
+pub mod report;
 pub mod topology;
 pub mod triangle;
 pub mod voxelize;

@@ -101,17 +101,45 @@ pub(crate) struct Moves {
     pub len: usize,
 }
 
+/// Longest tripod path between a line's end voxel and its first or last
+/// column centre (at most 7 steps: see [`MAX_SPECIAL`]), with room to spare.
+const MAX_PATH: usize = 16;
+
+/// A short tripod path kept on the stack: the 26-line plans two per line,
+/// and a heap allocation there cost more than the whole middle of a
+/// 64-voxel line.
+struct ShortPath {
+    v: [[i64; 3]; MAX_PATH],
+    len: usize,
+}
+
+impl std::ops::Deref for ShortPath {
+    type Target = [[i64; 3]];
+    fn deref(&self) -> &[[i64; 3]] {
+        &self.v[..self.len]
+    }
+}
+
 /// The exact tripod path (local voxels) from `from` to `to`, both on it.
-fn tripod_path(f: &Frame, from: [i64; 3], to: [i64; 3]) -> Vec<[i64; 3]> {
+fn tripod_path(f: &Frame, from: [i64; 3], to: [i64; 3]) -> ShortPath {
     let mut e = f.tripod_e(from);
     let mut c = from;
-    let mut out = vec![c];
+    let mut out = ShortPath {
+        v: [[0; 3]; MAX_PATH],
+        len: 1,
+    };
+    out.v[0] = c;
     let n: i64 = (0..3).map(|k| to[k] - c[k]).sum();
+    assert!(
+        (n.max(0) as usize) < MAX_PATH,
+        "tripod path between a line end and its column centre has {n} steps"
+    );
     for _ in 0..n.max(0) {
         let k = Frame::tripod_choice(e);
         f.tripod_advance(&mut e, k);
         c[k] += 1;
-        out.push(c);
+        out.v[out.len] = c;
+        out.len += 1;
     }
     debug_assert_eq!(c, to, "tripod path does not reach its target");
     out

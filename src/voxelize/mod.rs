@@ -18,7 +18,7 @@
 //! Tunnel checks for the results live in [`crate::topology::tunnels`].
 
 pub mod conservative;
-pub mod slab;
 pub mod shapes;
+pub mod slab;
 pub mod solid;
 pub mod surface;

@@ -58,18 +58,31 @@ impl SlabBricks {
     /// ignored (they belong to another slab, or to the outside).
     #[inline(always)]
     pub fn set(&mut self, v: Voxel) {
-        let inside = v.x >= 0 && v.y >= 0 && v.z >= self.z0 && v.x < self.dims[0] && v.y < self.dims[1] && v.z < self.z1;
+        let inside = v.x >= 0
+            && v.y >= 0
+            && v.z >= self.z0
+            && v.x < self.dims[0]
+            && v.y < self.dims[1]
+            && v.z < self.z1;
         if !inside {
             return;
         }
         let (x, y, z) = (v.x, v.y, v.z - self.z0);
-        let (bx, by, bz) = ((x / BRICK) as usize, (y / BRICK) as usize, (z / BRICK) as usize);
+        let (bx, by, bz) = (
+            (x / BRICK) as usize,
+            (y / BRICK) as usize,
+            (z / BRICK) as usize,
+        );
         let cell = bx + self.nb[0] * (by + self.nb[1] * bz);
         // The table index is in range: 0 ≤ x < dims[0] ≤ nb[0]·BRICK, etc.
         let mut slot = self.table[cell];
         if slot == 0 {
             self.bricks.push((
-                [bx as i32 * BRICK, by as i32 * BRICK, bz as i32 * BRICK + self.z0],
+                [
+                    bx as i32 * BRICK,
+                    by as i32 * BRICK,
+                    bz as i32 * BRICK + self.z0,
+                ],
                 [0; 8],
             ));
             slot = self.bricks.len() as u32;
@@ -81,15 +94,26 @@ impl SlabBricks {
 
     /// Whether voxel `v` is set.
     pub fn get(&self, v: Voxel) -> bool {
-        let inside = v.x >= 0 && v.y >= 0 && v.z >= self.z0 && v.x < self.dims[0] && v.y < self.dims[1] && v.z < self.z1;
+        let inside = v.x >= 0
+            && v.y >= 0
+            && v.z >= self.z0
+            && v.x < self.dims[0]
+            && v.y < self.dims[1]
+            && v.z < self.z1;
         if !inside {
             return false;
         }
         let (x, y, z) = (v.x, v.y, v.z - self.z0);
-        let cell = (x / BRICK) as usize + self.nb[0] * ((y / BRICK) as usize + self.nb[1] * (z / BRICK) as usize);
+        let cell = (x / BRICK) as usize
+            + self.nb[0] * ((y / BRICK) as usize + self.nb[1] * (z / BRICK) as usize);
         match self.table[cell] {
             0 => false,
-            slot => self.bricks[slot as usize - 1].1[(z % BRICK) as usize] >> ((x % BRICK) + BRICK * (y % BRICK)) & 1 != 0,
+            slot => {
+                self.bricks[slot as usize - 1].1[(z % BRICK) as usize]
+                    >> ((x % BRICK) + BRICK * (y % BRICK))
+                    & 1
+                    != 0
+            }
         }
     }
 
