@@ -120,20 +120,33 @@ pub fn random_segments(n: usize, length: f64, grid: usize, seed: u64) -> Result<
     let snap = |x: f64| (x * fixed::ONE as f64).round() / fixed::ONE as f64;
     let mut out = Vec::with_capacity(n);
     while out.len() < n {
-        let a = DVec3::new(rng.random_range(0.0..hi), rng.random_range(0.0..hi), rng.random_range(0.0..hi));
+        let a = DVec3::new(
+            rng.random_range(0.0..hi),
+            rng.random_range(0.0..hi),
+            rng.random_range(0.0..hi),
+        );
         let z: f64 = rng.random_range(-1.0..1.0);
         let phi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
         let r = (1.0 - z * z).sqrt();
         let b = a + length * DVec3::new(r * phi.cos(), r * phi.sin(), z);
         if b.min_element() >= 0.0 && b.max_element() <= hi {
-            out.push(Segment::from_f64(a.to_array().map(snap), b.to_array().map(snap))?);
+            out.push(Segment::from_f64(
+                a.to_array().map(snap),
+                b.to_array().map(snap),
+            )?);
         }
     }
     Ok(out)
 }
 
 fn endpoints_f64(s: &Segment) -> (DVec3, DVec3) {
-    let p = |q: [i64; 3]| DVec3::new(fixed::to_f64(q[0]), fixed::to_f64(q[1]), fixed::to_f64(q[2]));
+    let p = |q: [i64; 3]| {
+        DVec3::new(
+            fixed::to_f64(q[0]),
+            fixed::to_f64(q[1]),
+            fixed::to_f64(q[2]),
+        )
+    };
     (p(s.a()), p(s.b()))
 }
 
@@ -175,7 +188,9 @@ pub fn line_report(cfg: &LineReportConfig) -> Result<Vec<LineRow>> {
             for x in 0..g {
                 let d = DVec3::new(x as f64 - c, y as f64 - c, z as f64 - c).length();
                 if d <= radius {
-                    *scene.get_mut(Voxel::new(x as i32, y as i32, z as i32)).expect("in grid") = OCCUPIED;
+                    *scene
+                        .get_mut(Voxel::new(x as i32, y as i32, z as i32))
+                        .expect("in grid") = OCCUPIED;
                 }
             }
         }
@@ -198,13 +213,18 @@ pub fn line_report(cfg: &LineReportConfig) -> Result<Vec<LineRow>> {
                     LineAlgorithm::Tripod6 => walk_mut(&mut grid, s, Connectivity::Six, write),
                     LineAlgorithm::AmanatidesWoo => {
                         let (a, b) = endpoints_f64(s);
-                        aw_walk_mut(&mut grid, a, b, write).map(|o| WalkOutcome::Completed { visited: o.visited })?
+                        aw_walk_mut(&mut grid, a, b, write)
+                            .map(|o| WalkOutcome::Completed { visited: o.visited })?
                     }
                     LineAlgorithm::Adaptive => {
                         let mut n = 0u64;
                         adaptive_walk(&scene, s, |&cell| {
                             n += 1;
-                            if cell & OCCUPIED != 0 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
+                            if cell & OCCUPIED != 0 {
+                                ControlFlow::Break(())
+                            } else {
+                                ControlFlow::Continue(())
+                            }
                         });
                         WalkOutcome::Completed { visited: n }
                     }
@@ -218,16 +238,22 @@ pub fn line_report(cfg: &LineReportConfig) -> Result<Vec<LineRow>> {
 
         // Error measures with the exact oracles.
         let conn = connectivity_of(algorithm);
-        let (mut voxels, mut untouched, mut contained, mut connected, mut mismatched) = (0u64, 0u64, 0u64, 0u64, 0u64);
+        let (mut voxels, mut untouched, mut contained, mut connected, mut mismatched) =
+            (0u64, 0u64, 0u64, 0u64, 0u64);
         for s in judged {
             let path = voxels_of(algorithm, s)?;
             voxels += path.len() as u64;
-            untouched += path.iter().filter(|&&v| first_untouched(s.a(), s.b(), &[v]).is_some()).count() as u64;
+            untouched += path
+                .iter()
+                .filter(|&&v| first_untouched(s.a(), s.b(), &[v]).is_some())
+                .count() as u64;
             contained += u64::from(covers_segment(s.a(), s.b(), &path));
             connected += u64::from(is_connected_path(&path, conn));
             mismatched += u64::from(match algorithm {
                 LineAlgorithm::AmanatidesWoo => path != Tripod6::new(s).collect::<Vec<_>>(),
-                LineAlgorithm::Adaptive => first_hit(&scene, s, None) != first_hit(&scene, s, Some(Connectivity::Six)),
+                LineAlgorithm::Adaptive => {
+                    first_hit(&scene, s, None) != first_hit(&scene, s, Some(Connectivity::Six))
+                }
                 _ => false,
             });
         }
@@ -254,7 +280,13 @@ fn write(c: &mut u8) -> ControlFlow<()> {
 /// First occupied voxel along `s`: by the adaptive ray (`conn = None`) or by
 /// a plain walk of connectivity `conn`.
 fn first_hit(scene: &DenseGrid<u8>, s: &Segment, conn: Option<Connectivity>) -> Option<Voxel> {
-    let stop = |&c: &u8| if c & OCCUPIED != 0 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) };
+    let stop = |&c: &u8| {
+        if c & OCCUPIED != 0 {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    };
     match conn {
         None => adaptive_walk(scene, s, stop).stopped_at(),
         Some(conn) => walk(scene, s, conn, stop).stopped_at(),
@@ -286,9 +318,15 @@ mod tests {
                 assert_eq!(r.untouched, 0.0, "{r:?}");
             }
         }
-        let tripod = rows.iter().find(|r| r.algorithm == LineAlgorithm::Tripod6).unwrap();
+        let tripod = rows
+            .iter()
+            .find(|r| r.algorithm == LineAlgorithm::Tripod6)
+            .unwrap();
         assert_eq!(tripod.containment, 1.0);
-        let adaptive = rows.iter().find(|r| r.algorithm == LineAlgorithm::Adaptive).unwrap();
+        let adaptive = rows
+            .iter()
+            .find(|r| r.algorithm == LineAlgorithm::Adaptive)
+            .unwrap();
         assert_eq!(adaptive.mismatch, 0.0);
     }
 }
