@@ -78,6 +78,14 @@ fn bench_size(c: &mut Criterion, g: usize, name: &str) {
     let raw = segments(n, 64.0, g as f64, 42);
     let segs = ours(&raw);
     let ints = floored(&raw);
+    let int_segs: Vec<Segment> = ints
+        .iter()
+        .map(|&(a, b)| {
+            let v = |p: (i32, i32, i32)| glam::IVec3::new(p.0, p.1, p.2);
+            Segment::from_voxels(v(a), v(b)).unwrap()
+        })
+        .collect();
+    let total26i: u64 = int_segs.iter().map(|s| Line26::new(s).len() as u64).sum();
     let total26: u64 = segs.iter().map(|s| Line26::new(s).len() as u64).sum();
     let total6: u64 = segs.iter().map(|s| Tripod6::new(s).len() as u64).sum();
     let total18: u64 = segs.iter().map(|s| Line18::new(s).count() as u64).sum();
@@ -103,6 +111,15 @@ fn bench_size(c: &mut Criterion, g: usize, name: &str) {
         grp.bench_function("line26", |bn| {
             bn.iter(|| {
                 black_box(&segs)
+                    .iter()
+                    .map(|s| Line26::new(s).fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z))
+                    .fold(0, |a, b| a ^ b)
+            })
+        });
+        grp.throughput(Throughput::Elements(total26i));
+        grp.bench_function("line26_integer_endpoints", |bn| {
+            bn.iter(|| {
+                black_box(&int_segs)
                     .iter()
                     .map(|s| Line26::new(s).fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z))
                     .fold(0, |a, b| a ^ b)
@@ -253,6 +270,17 @@ fn bench_size(c: &mut Criterion, g: usize, name: &str) {
                     ControlFlow::Continue(())
                 })
                 .unwrap();
+            }
+        })
+    });
+    grp.throughput(Throughput::Elements(total26i));
+    grp.bench_function("line26_integer_endpoints", |bn| {
+        bn.iter(|| {
+            for s in black_box(&int_segs) {
+                walk_mut(&mut grid, s, Connectivity::TwentySix, |c| {
+                    *c = 1;
+                    ControlFlow::Continue(())
+                });
             }
         })
     });

@@ -181,6 +181,29 @@ pub(crate) struct Plan26 {
 impl Plan26 {
     pub(crate) fn new(f: &Frame) -> Self {
         let m = f.end[0];
+        let integer =
+            (0..3).all(|k| f.a[k] % crate::fixed::ONE == 0 && f.d[k] % crate::fixed::ONE == 0);
+        if integer && m >= 2 {
+            // Integer endpoints (Fig. 4 proper): every voxel is a column
+            // centre, the end voxels included, so the end paths are single
+            // moves: the first from the midpoint state at voxel 0, the last
+            // from column m − 1 to the end voxel. Same layout as below.
+            let first = AnyMid::at(f, [0; 3]).step() as u8;
+            let cl = f.centre(m - 1);
+            let last = (0..3).fold(0u8, |mask, k| mask | (u8::from(f.end[k] != cl[k]) << k));
+            let single = |mv: u8| {
+                let mut moves = Moves::default();
+                moves.m[0] = mv;
+                moves.len = 1;
+                moves
+            };
+            return Plan26 {
+                pre: single(first),
+                mid: (m - 2) as u64,
+                post: single(last),
+                mid_start: [1, i64::from(first >> 1 & 1), i64::from(first >> 2 & 1)],
+            };
+        }
         if m >= 2 {
             let c1 = f.centre(1);
             let cl = f.centre(m - 1);
@@ -236,6 +259,11 @@ impl Plan26 {
         let inside = |c: [i64; 3]| (0..3).all(|k| c[k] >= l[k] && c[k] <= h[k]);
         let pre = self.pre.len as u64;
         let total = self.count();
+        // The path is monotone in local coordinates: with both end voxels in
+        // the box, all of it is.
+        if inside([0; 3]) && inside(f.end) {
+            return Some((0, total - 1));
+        }
         // Middle columns 2..=M−1 inside the box, from per-axis thresholds.
         let (mut lo, mut hi) = (2i64, f.end[0] - 1);
         if self.mid > 0 {
