@@ -56,8 +56,11 @@ pub enum LineFamily {
 }
 
 /// The three axis families: thin, 6-tunnel-free surfaces.
-pub const THIN_FAMILIES: [LineFamily; 3] =
-    [LineFamily::Axis(0), LineFamily::Axis(1), LineFamily::Axis(2)];
+pub const THIN_FAMILIES: [LineFamily; 3] = [
+    LineFamily::Axis(0),
+    LineFamily::Axis(1),
+    LineFamily::Axis(2),
+];
 
 /// The four body-diagonal families: thick, 26-tunnel-free surfaces.
 pub const THICK_FAMILIES: [LineFamily; 4] = [
@@ -109,7 +112,11 @@ impl LineFamily {
 /// assert_eq!(got, vec![[0, 0, 0], [0, 1, 0], [1, 0, 0]]);
 /// ```
 pub fn triangle_crossings(tri: &SurfaceTriangle, family: LineFamily, emit: &mut impl FnMut(Voxel)) {
-    let p = [family.to_family(tri[0]), family.to_family(tri[1]), family.to_family(tri[2])];
+    let p = [
+        family.to_family(tri[0]),
+        family.to_family(tri[1]),
+        family.to_family(tri[2]),
+    ];
     // Local lattice origin: the floor of the minimum corner, so that local
     // coordinates are non-negative and bounded by the triangle's span.
     let mut origin = [0i64; 3];
@@ -121,12 +128,15 @@ pub fn triangle_crossings(tri: &SurfaceTriangle, family: LineFamily, emit: &mut 
         span = span.max(hi.div_euclid(VOXEL_ONE) - origin[a] + 1);
     }
     let local = |q: [i64; 3]| {
-        [q[0] - origin[0] * VOXEL_ONE, q[1] - origin[1] * VOXEL_ONE, q[2] - origin[2] * VOXEL_ONE]
+        [
+            q[0] - origin[0] * VOXEL_ONE,
+            q[1] - origin[1] * VOXEL_ONE,
+            q[2] - origin[2] * VOXEL_ONE,
+        ]
     };
     let l = [local(p[0]), local(p[1]), local(p[2])];
-    let mut emit_local = |i: i64, j: i64, t: i64| {
-        emit(family.to_voxel(i + origin[0], j + origin[1], t + origin[2]))
-    };
+    let mut emit_local =
+        |i: i64, j: i64, t: i64| emit(family.to_voxel(i + origin[0], j + origin[1], t + origin[2]));
     if span <= MAX_TRIANGLE_SPAN {
         crossings_local::<i64>(&l, &mut emit_local);
     } else {
@@ -171,12 +181,20 @@ macro_rules! kernel_int {
             #[inline(always)]
             fn div_floor(self, d: Self) -> Self {
                 let q = self / d;
-                if (self % d != 0) && ((self < 0) != (d < 0)) { q - 1 } else { q }
+                if (self % d != 0) && ((self < 0) != (d < 0)) {
+                    q - 1
+                } else {
+                    q
+                }
             }
             #[inline(always)]
             fn div_ceil_(self, d: Self) -> Self {
                 let q = self / d;
-                if (self % d != 0) && ((self < 0) == (d < 0)) { q + 1 } else { q }
+                if (self % d != 0) && ((self < 0) == (d < 0)) {
+                    q + 1
+                } else {
+                    q
+                }
             }
         }
     };
@@ -298,7 +316,9 @@ impl SurfaceMode {
 
 /// Voxelizes `triangles` (fixed-point grid coordinates, [`VOXEL_FRAC_BITS`])
 /// into a grid of `dims`, in parallel over z-slabs balanced by expected work.
-/// Voxels outside `0..dims` are dropped. Returns the occupied bricks (min
+/// Crossing voxels outside `0..dims` are clamped into the grid (see
+/// [`SlabBricks::set`]: for meshes fitted with the `-r N` rule they come
+/// from crossings on the grid box's faces). Returns the occupied bricks (min
 /// corner, bits), each brick exactly once; the order is deterministic (by
 /// slab, then by first touch in triangle order) and independent of the number
 /// of threads.
@@ -351,8 +371,12 @@ impl SlabPlan {
         let z_range = |tri: &SurfaceTriangle| {
             let lo = tri.iter().map(|p| p[2]).min().unwrap_or(0);
             let hi = tri.iter().map(|p| p[2]).max().unwrap_or(0);
-            let lo = (lo - VOXEL_ONE / 2).div_euclid(VOXEL_ONE).clamp(0, nz as i64 - 1) as i32;
-            let hi = (hi + VOXEL_ONE / 2).div_euclid(VOXEL_ONE).clamp(0, nz as i64 - 1) as i32;
+            let lo = (lo - VOXEL_ONE / 2)
+                .div_euclid(VOXEL_ONE)
+                .clamp(0, nz as i64 - 1) as i32;
+            let hi = (hi + VOXEL_ONE / 2)
+                .div_euclid(VOXEL_ONE)
+                .clamp(0, nz as i64 - 1) as i32;
             (lo, hi)
         };
         // Expected work: lattice points ≈ projected areas, plus a set-up cost.
@@ -388,7 +412,10 @@ impl SlabPlan {
         let mut cuts = vec![0i32];
         let mut run = 0.0;
         for bz in 0..n_bricks {
-            let (a, b) = (bz * BRICK as usize, ((bz + 1) * BRICK as usize).min(nz as usize));
+            let (a, b) = (
+                bz * BRICK as usize,
+                ((bz + 1) * BRICK as usize).min(nz as usize),
+            );
             run += layer_work[a..b].iter().sum::<f64>();
             let target = total * cuts.len() as f64 / want as f64;
             if run >= target && cuts.len() < want && b < nz as usize {
@@ -474,7 +501,11 @@ mod tests {
 
     fn check(tri: &SurfaceTriangle) {
         for family in THIN_FAMILIES.iter().chain(THICK_FAMILIES.iter()) {
-            assert_eq!(kernel(tri, *family), reference(tri, *family), "{tri:?} {family:?}");
+            assert_eq!(
+                kernel(tri, *family),
+                reference(tri, *family),
+                "{tri:?} {family:?}"
+            );
         }
     }
 
@@ -503,7 +534,10 @@ mod tests {
             let b = [a[0] + big, VOXEL_ONE * 3 / 2, VOXEL_ONE / 3];
             let c = [a[0] + big / 2, VOXEL_ONE * 2, VOXEL_ONE * 5 / 4];
             let tri = [a, b, c];
-            assert_eq!(kernel(&tri, LineFamily::Axis(2)), reference(&tri, LineFamily::Axis(2)));
+            assert_eq!(
+                kernel(&tri, LineFamily::Axis(2)),
+                reference(&tri, LineFamily::Axis(2))
+            );
         }
     }
 
@@ -518,6 +552,12 @@ mod tests {
         check(&[[0, 0, 0], [5 * o, 0, 0], [0, 5 * o, 0]]);
         // Vertical (contains the z direction): skipped by the z family only.
         check(&[[0, 0, 0], [4 * o, 4 * o, 0], [0, 0, 4 * o]]);
-        assert!(kernel(&[[0, 0, 0], [4 * o, 4 * o, 0], [0, 0, 4 * o]], LineFamily::Axis(2)).is_empty());
+        assert!(
+            kernel(
+                &[[0, 0, 0], [4 * o, 4 * o, 0], [0, 0, 4 * o]],
+                LineFamily::Axis(2)
+            )
+            .is_empty()
+        );
     }
 }

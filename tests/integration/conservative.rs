@@ -334,7 +334,7 @@ fn real_mesh_reference_timing() {
     let mut hi = -lo;
     for m in &models {
         for p in m.mesh.positions.chunks(3) {
-            let p = glam::DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+            let p = glam::DVec3::new(p[0], p[1], p[2]);
             lo = lo.min(p);
             hi = hi.max(p);
         }
@@ -345,7 +345,7 @@ fn real_mesh_reference_timing() {
         for f in m.mesh.indices.chunks(3) {
             let tri: FixedTriangle = std::array::from_fn(|k| {
                 let i = f[k] as usize * 3;
-                let w = glam::DVec3::new(pos[i] as f64, pos[i + 1] as f64, pos[i + 2] as f64);
+                let w = glam::DVec3::new(pos[i], pos[i + 1], pos[i + 2]);
                 let g = (w - lo) / h - glam::DVec3::splat(0.5);
                 voxkit::fixed::point_to_fixed(g.to_array()).unwrap()
             });

@@ -11,3 +11,4 @@ mod solid;
 mod topology;
 mod triangle_index;
 mod tunnels;
+mod voxelize;
