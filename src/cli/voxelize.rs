@@ -6,7 +6,8 @@
 //!
 //! `--json` prints one line with the keys `mesh`, `mode`, `resolution`,
 //! `snap`, `dims`, `triangles`, `skipped_triangles`, `segments`, `voxels`,
-//! `bricks`, `estimated_mib`, `load_ms`, `quantize_ms`, `voxelize_ms` (the
+//! `bricks`, `estimated_mib`, `load_ms`, `quantize_ms`, `kernel_ms`,
+//! `polyline_ms`, `voxelize_ms` (the
 //! whole voxelization, quantization included), `write_ms`, `peak_rss_mib`
 //! (VmHWM of `/proc/self/status`, `null` where unavailable) and, with
 //! `--measure`, `measure_ms`, `reference_voxels`, `missing`, `extra`,
@@ -176,6 +177,8 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "estimated_mib": s.estimated_bytes as f64 / (1u64 << 20) as f64,
         "load_ms": load_ms,
         "quantize_ms": s.quantize_ms,
+        "kernel_ms": s.kernel_ms,
+        "polyline_ms": s.polyline_ms,
         "voxelize_ms": s.total_ms,
         "write_ms": write_ms,
     });

@@ -13,6 +13,7 @@ use crate::grid::Voxel;
 
 /// Edge length of a brick in voxels.
 pub const BRICK: i32 = 8;
+const _: () = assert!(BRICK == 8, "SlabBricks::set uses shifts by 3");
 
 /// One 8³ brick as 8 words: bit `x + 8·y` of word `z` is voxel `(x, y, z)`.
 pub type BrickBits = [u64; 8];
@@ -76,11 +77,8 @@ impl SlabBricks {
             return;
         }
         let z = z - self.z0;
-        let (bx, by, bz) = (
-            (x / BRICK) as usize,
-            (y / BRICK) as usize,
-            (z / BRICK) as usize,
-        );
+        // All three are non-negative here: shifts and masks, not signed division.
+        let (bx, by, bz) = ((x >> 3) as usize, (y >> 3) as usize, (z >> 3) as usize);
         let cell = bx + self.nb[0] * (by + self.nb[1] * bz);
         // The table index is in range: 0 ≤ x < dims[0] ≤ nb[0]·BRICK, etc.
         let mut slot = self.table[cell];
@@ -97,7 +95,7 @@ impl SlabBricks {
             self.table[cell] = slot;
         }
         let bits = &mut self.bricks[slot as usize - 1].1;
-        bits[(z % BRICK) as usize] |= 1u64 << ((x % BRICK) + BRICK * (y % BRICK));
+        bits[(z & 7) as usize] |= 1u64 << ((x & 7) | ((y & 7) << 3));
     }
 
     /// Whether voxel `v` is set.
