@@ -29,6 +29,8 @@ pub struct SlabBricks {
     table: Vec<u32>,
     /// Brick coordinate and bits, in order of first touch.
     bricks: Vec<([i32; 3], BrickBits)>,
+    /// Last brick written: (table cell, slot); cell `usize::MAX` = none.
+    last: (usize, u32),
 }
 
 impl SlabBricks {
@@ -47,6 +49,7 @@ impl SlabBricks {
             nb,
             table: vec![0; nb[0] * nb[1] * nb[2]],
             bricks: Vec::new(),
+            last: (usize::MAX, 0),
         }
     }
 
@@ -80,6 +83,12 @@ impl SlabBricks {
         // All three are non-negative here: shifts and masks, not signed division.
         let (bx, by, bz) = ((x >> 3) as usize, (y >> 3) as usize, (z >> 3) as usize);
         let cell = bx + self.nb[0] * (by + self.nb[1] * bz);
+        // Consecutive crossings of a row mostly share a brick: skip the table.
+        if cell == self.last.0 {
+            let bits = &mut self.bricks[self.last.1 as usize - 1].1;
+            bits[(z & 7) as usize] |= 1u64 << ((x & 7) | ((y & 7) << 3));
+            return;
+        }
         // The table index is in range: 0 ≤ x < dims[0] ≤ nb[0]·BRICK, etc.
         let mut slot = self.table[cell];
         if slot == 0 {
@@ -94,6 +103,7 @@ impl SlabBricks {
             slot = self.bricks.len() as u32;
             self.table[cell] = slot;
         }
+        self.last = (cell, slot);
         let bits = &mut self.bricks[slot as usize - 1].1;
         bits[(z & 7) as usize] |= 1u64 << ((x & 7) | ((y & 7) << 3));
     }
