@@ -1,7 +1,12 @@
 //! Error measures of a voxelization against the exact conservative set of
 //! the same fixed-point triangles (`voxkit voxelize --measure`).
 //!
-//! What [`measure_voxelization`] computes, precisely:
+//! What [`measure_voxelization`] computes, precisely. The *reference mesh*
+//! is the 1/256-voxel mesh ([`Voxelization::reference_mesh`]) — also for a
+//! snapped run, so the measures include the snapping error; the tunnel
+//! verdicts use the mesh that was voxelized (snapped or not), since
+//! tunnel-freeness is a property of a voxelization of its own input.
+//!
 //! * **reference**: the exact conservative set ([`conservative_grid`]) of the
 //!   quantized triangles (shifted to 2^-20, the same points) and polyline
 //!   segments, restricted to the grid box (the restriction drops nothing:
@@ -75,9 +80,10 @@ pub struct ErrorMeasures {
 /// Only from the solid fill (triangles spanning 2^20 voxels or more).
 pub fn measure_voxelization(v: &Voxelization, limit: MemoryLimit) -> Result<ErrorMeasures> {
     let dims = v.frame.dims;
-    let mut reference = conservative_grid(v.triangles.par_iter().map(to_reference), dims);
+    let rm = v.reference_mesh();
+    let mut reference = conservative_grid(rm.triangles.par_iter().map(to_reference), dims);
     reference.union_with(&conservative_grid(
-        v.segments.par_iter().map(segment_to_reference),
+        rm.segments.par_iter().map(segment_to_reference),
         dims,
     ));
     let (mut missing, mut extra) = (0, 0);
@@ -93,7 +99,7 @@ pub fn measure_voxelization(v: &Voxelization, limit: MemoryLimit) -> Result<Erro
             .map(|w| (o[w] & !m[w]).count_ones() as u64)
             .sum::<u64>();
     }
-    let (max_distance, mean_distance, far_voxels) = distances(&v.grid, &v.triangles, &v.segments);
+    let (max_distance, mean_distance, far_voxels) = distances(&v.grid, &rm.triangles, &rm.segments);
     let mut out = ErrorMeasures {
         reference_voxels: reference.count(),
         missing,
@@ -101,7 +107,7 @@ pub fn measure_voxelization(v: &Voxelization, limit: MemoryLimit) -> Result<Erro
         max_distance,
         mean_distance,
         far_voxels,
-        closed: is_closed(&v.triangles, &v.degenerate),
+        closed: is_closed(&v.mesh.triangles, &v.mesh.degenerate),
         ..Default::default()
     };
     drop(reference);
@@ -118,7 +124,7 @@ pub fn measure_voxelization(v: &Voxelization, limit: MemoryLimit) -> Result<Erro
         ));
         return Ok(out);
     }
-    let fixed: Vec<_> = v.triangles.par_iter().map(to_reference).collect();
+    let fixed: Vec<_> = v.mesh.triangles.par_iter().map(to_reference).collect();
     let occ = v.grid.to_bit_grid(dims, limit)?;
     let seeds = {
         let solid = solid_voxels_voting(&fixed, dims, limit)?;

@@ -175,26 +175,37 @@ pub struct Voxelization {
     pub frame: GridFrame,
     /// Counts and timings.
     pub stats: VoxelizeStats,
-    /// The quantized triangles that were voxelized (for error measures).
+    /// The quantized mesh that was voxelized.
+    pub mesh: QuantizedMesh,
+    /// With [`VoxelizeOptions::snap`]: the same mesh at 1/256 voxel, the
+    /// surface the snapped result is measured against.
+    pub exact: Option<QuantizedMesh>,
+}
+
+impl Voxelization {
+    /// The surface error measures compare against: the 1/256 mesh (also
+    /// when the vertices were snapped).
+    pub fn reference_mesh(&self) -> &QuantizedMesh {
+        self.exact.as_ref().unwrap_or(&self.mesh)
+    }
+}
+
+/// A mesh in fixed-point grid coordinates ([`VOXEL_FRAC_BITS`]).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct QuantizedMesh {
+    /// Non-degenerate triangles.
     pub triangles: Vec<SurfaceTriangle>,
-    /// The quantized polyline segments that were voxelized.
-    pub segments: Vec<SurfaceSegment>,
-    /// The quantized triangles skipped as degenerate (kept for the
-    /// closedness test: a collinear triangle still pairs its edges).
+    /// Triangles that quantization made degenerate (skipped by the
+    /// voxelizer, kept for the closedness test: a collinear triangle still
+    /// pairs its neighbours' edges).
     pub degenerate: Vec<SurfaceTriangle>,
+    /// Polyline segments.
+    pub segments: Vec<SurfaceSegment>,
 }
 
 /// Grid-space fixed-point triangles of `mesh` in `frame` (see the module
-/// docs): `(kept triangles, degenerate triangles, segments)`.
-pub fn quantize_mesh(
-    mesh: &Mesh,
-    frame: &GridFrame,
-    snap: bool,
-) -> (
-    Vec<SurfaceTriangle>,
-    Vec<SurfaceTriangle>,
-    Vec<SurfaceSegment>,
-) {
+/// docs).
+pub fn quantize_mesh(mesh: &Mesh, frame: &GridFrame, snap: bool) -> QuantizedMesh {
     let hi = frame.dims.map(|d| d as i64 * VOXEL_ONE - VOXEL_ONE / 2);
     let lo = -VOXEL_ONE / 2;
     let q: Vec<[i64; 3]> = mesh
@@ -228,7 +239,11 @@ pub fn quantize_mesh(
         .iter()
         .flat_map(|l| l.windows(2).map(|w| [q[w[0] as usize], q[w[1] as usize]]))
         .collect();
-    (tris, skipped, segments)
+    QuantizedMesh {
+        triangles: tris,
+        degenerate: skipped,
+        segments,
+    }
 }
 
 /// Whether the fixed-point triangle has zero area (exact).
@@ -351,8 +366,13 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
             opts.resolution
         )));
     }
-    let (triangles, skipped, segments) = quantize_mesh(mesh, &frame, opts.snap);
-    let estimated = estimate_bytes(&triangles, segments.len(), frame.dims, opts.mode);
+    let quantized = quantize_mesh(mesh, &frame, opts.snap);
+    let (triangles, skipped, segments) = (
+        &quantized.triangles,
+        &quantized.degenerate,
+        &quantized.segments,
+    );
+    let estimated = estimate_bytes(triangles, segments.len(), frame.dims, opts.mode);
     opts.limit.check(
         &format!(
             "voxelizing {} triangles into {:?} ({})",
@@ -375,7 +395,7 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
             } else {
                 SurfaceMode::Thick
             };
-            bricks_to_grid(voxelize_surface(&triangles, dims_i, surface))
+            bricks_to_grid(voxelize_surface(triangles, dims_i, surface))
         }
         VoxelizeMode::Conservative => {
             report("conservative");
@@ -383,7 +403,7 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
         }
         VoxelizeMode::Solid => {
             report("surface");
-            let mut g = bricks_to_grid(voxelize_surface(&triangles, dims_i, SurfaceMode::Thin));
+            let mut g = bricks_to_grid(voxelize_surface(triangles, dims_i, SurfaceMode::Thin));
             report("solid");
             let fixed: Vec<FixedTriangle> = triangles.par_iter().map(to_reference).collect();
             let inside = solid_voxels_voting(&fixed, frame.dims, opts.limit)?;
@@ -418,9 +438,8 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
         grid,
         frame,
         stats,
-        triangles,
-        segments,
-        degenerate: skipped,
+        exact: opts.snap.then(|| quantize_mesh(mesh, &frame, false)),
+        mesh: quantized,
     })
 }
 

@@ -90,7 +90,7 @@ fn thin_and_thick_are_tunnel_free_and_inside_conservative_on_generated_meshes() 
             let snap = (i + ri) % 4 == 3;
             let cons = run(mesh, r, VoxelizeMode::Conservative, snap);
             assert!(
-                is_closed(&cons.triangles, &cons.degenerate),
+                is_closed(&cons.mesh.triangles, &cons.mesh.degenerate),
                 "{name} r{r}: {} degenerate",
                 cons.stats.skipped_triangles
             );
@@ -110,12 +110,24 @@ fn thin_and_thick_are_tunnel_free_and_inside_conservative_on_generated_meshes() 
                 Some(false),
                 "{name} r{r} snap {snap}: thin has a 6-tunnel"
             );
-            assert_eq!((mt.extra, mt.far_voxels), (0, 0));
-            assert!(
-                mt.max_distance <= 0.75f64.sqrt() + 1e-9,
-                "{name}: {}",
-                mt.max_distance
-            );
+            // Measures are against the 1/256 mesh: exact for unsnapped runs;
+            // snapping moves vertices by at most √3/2, so voxels stay within
+            // √3/2 + √3/2 of the exact surface.
+            assert_eq!(mt.far_voxels, 0);
+            if snap {
+                assert!(
+                    mt.max_distance <= 3f64.sqrt() + 1e-9,
+                    "{name}: {}",
+                    mt.max_distance
+                );
+            } else {
+                assert_eq!(mt.extra, 0);
+                assert!(
+                    mt.max_distance <= 0.75f64.sqrt() + 1e-9,
+                    "{name}: {}",
+                    mt.max_distance
+                );
+            }
             let mk = measure_voxelization(&thick, MemoryLimit::DEFAULT).unwrap();
             assert_eq!(
                 mk.tunnel26,
@@ -124,7 +136,12 @@ fn thin_and_thick_are_tunnel_free_and_inside_conservative_on_generated_meshes() 
             );
             assert_eq!(mk.tunnel6, Some(false));
             let mc = measure_voxelization(&cons, MemoryLimit::DEFAULT).unwrap();
-            assert_eq!((mc.missing, mc.extra), (0, 0));
+            if snap && i != 2 {
+                // Snapping is an error the measure sees (on rotated shapes).
+                assert!(mc.missing + mc.extra > 0, "{name} r{r}");
+            } else if !snap {
+                assert_eq!((mc.missing, mc.extra), (0, 0));
+            }
             assert_eq!(mc.tunnel26, Some(false));
             // Shape 2 is an unrotated box with faces on the grid box's faces:
             // there the conservative set is one layer thick too (ratio 1).
@@ -239,10 +256,11 @@ fn conservative_equals_brute_force_scan_and_contains_thin_and_thick() {
         let cons = run(&mesh, 9, VoxelizeMode::Conservative, snap);
         assert_eq!(cons.frame.dims, [9, 9, 9]);
         let refs: Vec<_> = cons
+            .mesh
             .triangles
             .iter()
             .map(to_reference)
-            .chain(cons.segments.iter().map(segment_to_reference))
+            .chain(cons.mesh.segments.iter().map(segment_to_reference))
             .collect();
         let mut brute = BrickGrid::new();
         for z in 0..9 {
@@ -260,7 +278,7 @@ fn conservative_equals_brute_force_scan_and_contains_thin_and_thick() {
             let s = run(&mesh, 9, mode, snap);
             assert!(subset(&s.grid, &cons.grid), "case {case} {mode:?}");
             // Polyline voxels are the segments' conservative sets in every mode.
-            let lines: Vec<_> = s.segments.iter().map(segment_to_reference).collect();
+            let lines: Vec<_> = s.mesh.segments.iter().map(segment_to_reference).collect();
             for v in cons
                 .grid
                 .iter()
@@ -284,7 +302,7 @@ fn solid_contains_surface_and_matches_winding_number_off_the_surface() {
         let thin = run(&mesh, r, VoxelizeMode::Thin, false);
         let cons = run(&mesh, r, VoxelizeMode::Conservative, false);
         assert!(subset(&thin.grid, &solid.grid), "{name}");
-        let fixed: Vec<_> = solid.triangles.iter().map(to_reference).collect();
+        let fixed: Vec<_> = solid.mesh.triangles.iter().map(to_reference).collect();
         let [nx, ny, nz] = solid.frame.dims.map(|d| d as i32);
         let mut checked = 0;
         for z in 0..nz {
