@@ -8,13 +8,17 @@ use std::io::Write;
 
 use clap::{Parser, Subcommand};
 
+mod check;
 mod demo;
 mod line;
 mod triangle;
+mod voxelize;
 
+pub use check::CheckArgs;
 pub use demo::DemoArgs;
 pub use line::LineArgs;
 pub use triangle::TriangleArgs;
+pub use voxelize::{ModeArg, VoxelizeArgs};
 
 /// Discrete 3D lines, voxelization and discrete ray casting.
 #[derive(Debug, Parser)]
@@ -35,6 +39,10 @@ pub enum Command {
     Line(LineArgs),
     /// Kahan–Kelsen indexing of the lattice points of a triangle.
     Triangle(TriangleArgs),
+    /// Voxelize a mesh (OBJ / glTF) into a voxel file.
+    Voxelize(VoxelizeArgs),
+    /// Check a voxel file's surface for N-tunnels (exit 1 if one exists).
+    Check(CheckArgs),
 }
 
 /// A command-line failure: the message for stderr and the exit code.
@@ -74,6 +82,8 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<(), CliError> {
         Command::Demo(args) => demo::run(args, out),
         Command::Line(args) => line::run(args, out),
         Command::Triangle(args) => triangle::run(args, out),
+        Command::Voxelize(args) => voxelize::run(args, out),
+        Command::Check(args) => check::run(args, out),
     }
 }
 

@@ -10,6 +10,8 @@
 //! |---|---|
 //! | [`conservative`] | exact triangle–box test (integer separating axes), per-triangle and mesh-level conservative sets |
 //! | [`solid`] | inside tests: generalized winding number, exact axis parity, 3-axis voting |
+//! | [`pipeline`] | mesh → brick grid: fitting, quantization, memory estimate, the four modes, polylines |
+//! | [`measure`] | error measures against the exact conservative set: missing/extra, distances, tunnels |
 //! | [`shapes`] | closed test meshes (UV sphere, torus, box) with rotations and offsets |
 //!
 //! Meshes are triangle soups in grid space with fixed-point vertices
@@ -18,6 +20,8 @@
 //! Tunnel checks for the results live in [`crate::topology::tunnels`].
 
 pub mod conservative;
+pub mod measure;
+pub mod pipeline;
 pub mod shapes;
 pub mod slab;
 pub mod solid;

@@ -13,6 +13,7 @@ use crate::grid::Voxel;
 
 /// Edge length of a brick in voxels.
 pub const BRICK: i32 = 8;
+const _: () = assert!(BRICK == 8, "SlabBricks::set uses shifts by 3");
 
 /// One 8³ brick as 8 words: bit `x + 8·y` of word `z` is voxel `(x, y, z)`.
 pub type BrickBits = [u64; 8];
@@ -28,6 +29,8 @@ pub struct SlabBricks {
     table: Vec<u32>,
     /// Brick coordinate and bits, in order of first touch.
     bricks: Vec<([i32; 3], BrickBits)>,
+    /// Last brick written: (table cell, slot); cell `usize::MAX` = none.
+    last: (usize, u32),
 }
 
 impl SlabBricks {
@@ -46,6 +49,7 @@ impl SlabBricks {
             nb,
             table: vec![0; nb[0] * nb[1] * nb[2]],
             bricks: Vec::new(),
+            last: (usize::MAX, 0),
         }
     }
 
@@ -54,26 +58,37 @@ impl SlabBricks {
         self.table.len() * 4 + self.bricks.capacity() * std::mem::size_of::<([i32; 3], BrickBits)>()
     }
 
-    /// Sets voxel `v` if it lies in this slab and in the grid; others are
-    /// ignored (they belong to another slab, or to the outside).
+    /// Sets voxel `v`, first **clamping** each coordinate into `0..dims`;
+    /// the clamped voxel is then set if its z lies in this slab (otherwise
+    /// it belongs to another slab, which sets it).
+    ///
+    /// Why clamp rather than drop: with the fitting rule every mesh point
+    /// lies in `[-1/2, dims - 1/2]` per axis, so a crossing voxel outside
+    /// `0..dims` can only come from a crossing on the grid box's face (grid
+    /// coordinate `dims - 1/2` rounds to `dims` by `floor(t + 1/2)`, and a
+    /// body-diagonal line can leave by one more). Such a point also lies in
+    /// the closed cube of the clamped voxel on the box face, so the clamped
+    /// voxel still touches the surface, and a surface lying exactly on the
+    /// max face keeps its voxels instead of losing them (see
+    /// [`crate::mesh`]'s "closed at its max faces" rule).
     #[inline(always)]
     pub fn set(&mut self, v: Voxel) {
-        let inside = v.x >= 0
-            && v.y >= 0
-            && v.z >= self.z0
-            && v.x < self.dims[0]
-            && v.y < self.dims[1]
-            && v.z < self.z1;
-        if !inside {
+        let x = v.x.clamp(0, self.dims[0] - 1);
+        let y = v.y.clamp(0, self.dims[1] - 1);
+        let z = v.z.clamp(0, self.dims[2] - 1);
+        if z < self.z0 || z >= self.z1 {
             return;
         }
-        let (x, y, z) = (v.x, v.y, v.z - self.z0);
-        let (bx, by, bz) = (
-            (x / BRICK) as usize,
-            (y / BRICK) as usize,
-            (z / BRICK) as usize,
-        );
+        let z = z - self.z0;
+        // All three are non-negative here: shifts and masks, not signed division.
+        let (bx, by, bz) = ((x >> 3) as usize, (y >> 3) as usize, (z >> 3) as usize);
         let cell = bx + self.nb[0] * (by + self.nb[1] * bz);
+        // Consecutive crossings of a row mostly share a brick: skip the table.
+        if cell == self.last.0 {
+            let bits = &mut self.bricks[self.last.1 as usize - 1].1;
+            bits[(z & 7) as usize] |= 1u64 << ((x & 7) | ((y & 7) << 3));
+            return;
+        }
         // The table index is in range: 0 ≤ x < dims[0] ≤ nb[0]·BRICK, etc.
         let mut slot = self.table[cell];
         if slot == 0 {
@@ -88,8 +103,9 @@ impl SlabBricks {
             slot = self.bricks.len() as u32;
             self.table[cell] = slot;
         }
+        self.last = (cell, slot);
         let bits = &mut self.bricks[slot as usize - 1].1;
-        bits[(z % BRICK) as usize] |= 1u64 << ((x % BRICK) + BRICK * (y % BRICK));
+        bits[(z & 7) as usize] |= 1u64 << ((x & 7) | ((y & 7) << 3));
     }
 
     /// Whether voxel `v` is set.
@@ -125,5 +141,32 @@ impl SlabBricks {
     /// The occupied bricks, borrowed.
     pub fn bricks(&self) -> &[([i32; 3], BrickBits)] {
         &self.bricks
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn set_clamps_into_the_grid_and_respects_the_slab() {
+        let dims = [10, 9, 20];
+        let mut s = SlabBricks::new(dims, 8, 20);
+        // Beyond the max faces (and below 0 in x, y): clamped to the border.
+        s.set(Voxel::new(10, 9, 20));
+        s.set(Voxel::new(-1, 4, 21));
+        // z below the grid clamps to 0, which is another slab's: ignored here.
+        s.set(Voxel::new(3, 3, -1));
+        assert!(s.get(Voxel::new(9, 8, 19)));
+        assert!(s.get(Voxel::new(0, 4, 19)));
+        let n: u32 = s
+            .bricks()
+            .iter()
+            .map(|(_, b)| b.iter().map(|w| w.count_ones()).sum::<u32>())
+            .sum();
+        assert_eq!(n, 2);
+        let mut first = SlabBricks::new(dims, 0, 8);
+        first.set(Voxel::new(3, 3, -1));
+        assert!(first.get(Voxel::new(3, 3, 0)));
     }
 }

@@ -256,6 +256,31 @@ fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], emit: &mut impl FnMut(i64, i64
     let vmax = q[0][1].max(q[1][1]).max(q[2][1]);
     let j_lo = vmin.div_ceil_(s);
     let j_hi = vmax.div_floor(s);
+    // Row bounds, stepped: with N_k(j) = beta_k·j + gamma_k (≥ 0 inside) and
+    // d_k = |alpha_k|, an edge with alpha_k > 0 bounds i from below by
+    // ceil(−N_k/alpha_k) = −floor(N_k/d_k), one with alpha_k < 0 from above
+    // by floor(N_k/d_k). floor(N_k/d_k) and its remainder are carried from
+    // row to row (N_k grows by beta_k), so a row costs additions, not three
+    // divisions. alpha_k = 0: the row is empty iff N_k(j) < 0.
+    let mut d = [I::ZERO; 3];
+    let mut fq = [I::ZERO; 3];
+    let mut fr = [I::ZERO; 3];
+    let mut sq = [I::ZERO; 3];
+    let mut sr = [I::ZERO; 3];
+    for k in 0..3 {
+        d[k] = if alpha[k] < I::ZERO {
+            -alpha[k]
+        } else {
+            alpha[k]
+        };
+        if d[k] != I::ZERO {
+            let n = beta[k] * j_lo + gamma[k];
+            fq[k] = n.div_floor(d[k]);
+            fr[k] = n - fq[k] * d[k];
+            sq[k] = beta[k].div_floor(d[k]);
+            sr[k] = beta[k] - sq[k] * d[k];
+        }
+    }
     let mut j = j_lo;
     while j <= j_hi {
         // Lattice i in the closed triangle on row j.
@@ -263,13 +288,20 @@ fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], emit: &mut impl FnMut(i64, i64
         let mut hi = I::from_i64(i64::MAX);
         let mut empty = false;
         for k in 0..3 {
-            let m = -(beta[k] * j + gamma[k]);
             if alpha[k] > I::ZERO {
-                lo = lo.max(m.div_ceil_(alpha[k]));
+                lo = lo.max(-fq[k]);
             } else if alpha[k] < I::ZERO {
-                hi = hi.min(m.div_floor(alpha[k]));
-            } else if m > I::ZERO {
+                hi = hi.min(fq[k]);
+            } else if beta[k] * j + gamma[k] < I::ZERO {
                 empty = true;
+            }
+            if d[k] != I::ZERO {
+                fq[k] += sq[k];
+                fr[k] += sr[k];
+                if fr[k] >= d[k] {
+                    fr[k] -= d[k];
+                    fq[k] += I::ONE;
+                }
             }
         }
         if !empty && lo <= hi {
@@ -316,7 +348,9 @@ impl SurfaceMode {
 
 /// Voxelizes `triangles` (fixed-point grid coordinates, [`VOXEL_FRAC_BITS`])
 /// into a grid of `dims`, in parallel over z-slabs balanced by expected work.
-/// Voxels outside `0..dims` are dropped. Returns the occupied bricks (min
+/// Crossing voxels outside `0..dims` are clamped into the grid (see
+/// [`SlabBricks::set`]: for meshes fitted with the `-r N` rule they come
+/// from crossings on the grid box's faces). Returns the occupied bricks (min
 /// corner, bits), each brick exactly once; the order is deterministic (by
 /// slab, then by first touch in triangle order) and independent of the number
 /// of threads.

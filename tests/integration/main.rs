@@ -12,3 +12,4 @@ mod solid;
 mod topology;
 mod triangle_index;
 mod tunnels;
+mod voxelize;

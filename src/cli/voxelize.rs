@@ -1,0 +1,248 @@
+//! `voxkit voxelize MESH -r N -o OUT [--mode thin|thick|conservative|solid] [--snap] [--json] [--measure] [--force] [--max-memory MIB] [-q]`
+//!
+//! Loads an OBJ / glTF mesh, voxelizes it ([`voxelize_mesh`]) and writes a
+//! `.binvox`, `.vox`, `.npy` or `.nrrd` file (by extension). An existing
+//! output is refused without `--force` (exit 2, checked before any work).
+//!
+//! `--json` prints one line with the keys `mesh`, `mode`, `resolution`,
+//! `snap`, `dims`, `triangles`, `skipped_triangles`, `segments`, `voxels`,
+//! `bricks`, `estimated_mib`, `load_ms`, `quantize_ms`, `kernel_ms`,
+//! `polyline_ms`, `voxelize_ms` (the
+//! whole voxelization, quantization included), `write_ms`, `peak_rss_mib`
+//! (VmHWM of `/proc/self/status`, `null` where unavailable) and, with
+//! `--measure`, `measure_ms`, `reference_voxels`, `missing`, `extra`,
+//! `max_distance`, `mean_distance`, `far_voxels`, `closed`, `tunnel6`,
+//! `tunnel26` (`null` when skipped) and `measure_note`. Without `--json` a
+//! short human summary is printed. A progress bar goes to stderr when it is a
+//! terminal and `-q` is not given.
+
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+use super::CliError;
+use crate::grid::MemoryLimit;
+use crate::io::{VoxelFormat, write_voxels_limited};
+use crate::mesh::Mesh;
+use crate::voxelize::measure::measure_voxelization;
+use crate::voxelize::pipeline::{Progress, VoxelizeMode, VoxelizeOptions, voxelize_mesh};
+
+/// The `--mode` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ModeArg {
+    /// 6-tunnel-free surface.
+    Thin,
+    /// 26-tunnel-free surface.
+    Thick,
+    /// Every voxel whose closed cube meets the surface.
+    Conservative,
+    /// Surface plus interior (3-axis parity voting).
+    Solid,
+}
+
+impl From<ModeArg> for VoxelizeMode {
+    fn from(m: ModeArg) -> Self {
+        match m {
+            ModeArg::Thin => VoxelizeMode::Thin,
+            ModeArg::Thick => VoxelizeMode::Thick,
+            ModeArg::Conservative => VoxelizeMode::Conservative,
+            ModeArg::Solid => VoxelizeMode::Solid,
+        }
+    }
+}
+
+/// Arguments of `voxkit voxelize`.
+#[derive(Debug, clap::Args)]
+pub struct VoxelizeArgs {
+    /// The mesh (.obj, .gltf, .glb).
+    pub mesh: PathBuf,
+    /// Voxels along the longest side of the bounding box.
+    #[arg(short = 'r', long = "resolution", value_name = "N")]
+    pub resolution: u32,
+    /// Output file (.binvox, .vox, .npy, .nrrd).
+    #[arg(short = 'o', long = "output", value_name = "OUT")]
+    pub output: PathBuf,
+    /// Which voxel set.
+    #[arg(long, value_enum, default_value = "thin")]
+    pub mode: ModeArg,
+    /// Snap vertices to the voxel lattice (faster, less exact).
+    #[arg(long)]
+    pub snap: bool,
+    /// Print one line of JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Also compute error measures against the exact conservative set.
+    #[arg(long)]
+    pub measure: bool,
+    /// Overwrite an existing output.
+    #[arg(long)]
+    pub force: bool,
+    /// Memory limit in MiB (estimated before allocating).
+    #[arg(long, value_name = "MIB", default_value_t = 4096)]
+    pub max_memory: u64,
+    /// No progress bar.
+    #[arg(short = 'q', long)]
+    pub quiet: bool,
+}
+
+/// Peak resident set size in MiB (VmHWM), where `/proc` has it.
+pub fn peak_rss_mib() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// Runs `voxkit voxelize`.
+pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
+    VoxelFormat::from_path(&args.output)?;
+    if !args.force && args.output.exists() {
+        return Err(CliError::bad_input(format!(
+            "{} exists (use --force to overwrite)",
+            args.output.display()
+        )));
+    }
+    let limit = MemoryLimit::new(args.max_memory.saturating_mul(1 << 20));
+    let t = Instant::now();
+    let mesh = Mesh::load(&args.mesh)?;
+    let load_ms = ms(t);
+
+    let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
+        let b = indicatif::ProgressBar::new(4);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} [{bar:30}] {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b.enable_steady_tick(std::time::Duration::from_millis(120));
+        b
+    });
+    let mut opts = VoxelizeOptions::new(args.resolution, args.mode.into());
+    opts.snap = args.snap;
+    opts.limit = limit;
+    if let Some(b) = &bar {
+        let b = b.clone();
+        opts.progress = Some(Arc::new(move |p: Progress| {
+            b.set_length(p.total + 2);
+            b.set_position(p.done);
+            b.set_message(p.phase);
+        }));
+    }
+    let result = voxelize_mesh(&mesh, &opts);
+    let v = match result {
+        Ok(v) => v,
+        Err(e) => {
+            if let Some(b) = &bar {
+                b.finish_and_clear();
+            }
+            return Err(e.into());
+        }
+    };
+    if let Some(b) = &bar {
+        b.set_message("write");
+    }
+    let t = Instant::now();
+    let written = write_voxels_limited(&args.output, &v.grid, &v.frame, args.force, limit);
+    let write_ms = ms(t);
+    let measured = if args.measure && written.is_ok() {
+        if let Some(b) = &bar {
+            b.set_message("measure");
+        }
+        let t = Instant::now();
+        Some((measure_voxelization(&v, limit), ms(t)))
+    } else {
+        None
+    };
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    written?;
+    let s = &v.stats;
+    let mut j = serde_json::json!({
+        "mesh": args.mesh.display().to_string(),
+        "output": args.output.display().to_string(),
+        "mode": VoxelizeMode::from(args.mode).name(),
+        "resolution": args.resolution,
+        "snap": args.snap,
+        "dims": v.frame.dims,
+        "triangles": s.triangles,
+        "skipped_triangles": s.skipped_triangles,
+        "segments": s.segments,
+        "voxels": s.voxels,
+        "bricks": s.bricks,
+        "estimated_mib": s.estimated_bytes as f64 / (1u64 << 20) as f64,
+        "load_ms": load_ms,
+        "quantize_ms": s.quantize_ms,
+        "kernel_ms": s.kernel_ms,
+        "polyline_ms": s.polyline_ms,
+        "voxelize_ms": s.total_ms,
+        "write_ms": write_ms,
+    });
+    if let Some((m, measure_ms)) = measured {
+        let m = m?;
+        let obj = j.as_object_mut().expect("json! of an object literal");
+        for (k, val) in [
+            ("measure_ms", serde_json::json!(measure_ms)),
+            ("reference_voxels", m.reference_voxels.into()),
+            ("missing", m.missing.into()),
+            ("extra", m.extra.into()),
+            ("max_distance", m.max_distance.into()),
+            ("mean_distance", m.mean_distance.into()),
+            ("far_voxels", m.far_voxels.into()),
+            ("closed", m.closed.into()),
+            ("tunnel6", serde_json::json!(m.tunnel6)),
+            ("tunnel26", serde_json::json!(m.tunnel26)),
+            ("measure_note", serde_json::json!(m.note)),
+        ] {
+            obj.insert(k.to_string(), val);
+        }
+    }
+    j.as_object_mut()
+        .expect("json! of an object literal")
+        .insert("peak_rss_mib".into(), serde_json::json!(peak_rss_mib()));
+    if args.json {
+        writeln!(out, "{j}")?;
+    } else {
+        writeln!(
+            out,
+            "{}: {} voxels in {} bricks, grid {:?}, {} triangles ({} skipped), {} segments; load {:.1} ms, voxelize {:.1} ms, write {:.1} ms; peak RSS {:.1} MiB",
+            args.output.display(),
+            s.voxels,
+            s.bricks,
+            v.frame.dims,
+            s.triangles,
+            s.skipped_triangles,
+            s.segments,
+            load_ms,
+            s.total_ms,
+            write_ms,
+            peak_rss_mib().unwrap_or(f64::NAN)
+        )?;
+        if let Some(obj) = j.as_object()
+            && obj.contains_key("missing")
+        {
+            writeln!(
+                out,
+                "measure: missing {} extra {} of {} reference voxels; distance max {:.4} mean {:.4} (far {}); closed {}, 6-tunnel {}, 26-tunnel {}{}",
+                obj["missing"],
+                obj["extra"],
+                obj["reference_voxels"],
+                obj["max_distance"].as_f64().unwrap_or(f64::NAN),
+                obj["mean_distance"].as_f64().unwrap_or(f64::NAN),
+                obj["far_voxels"],
+                obj["closed"],
+                obj["tunnel6"],
+                obj["tunnel26"],
+                obj["measure_note"]
+                    .as_str()
+                    .map(|n| format!(" ({n})"))
+                    .unwrap_or_default()
+            )?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,484 @@
+//! Mesh → voxel grid: the pipeline behind `voxkit voxelize`.
+//!
+//! [`voxelize_mesh`] runs, in order:
+//! 1. **fit** the grid frame to the mesh bounds ([`fit_frame`], `-r N`);
+//! 2. **quantize** every vertex once to fixed-point grid coordinates with
+//!    [`VOXEL_FRAC_BITS`] fraction bits (1/256 voxel), or with
+//!    [`VoxelizeOptions::snap`] to the integer voxel lattice (the voxel the
+//!    vertex lies in, [`fitted_voxel`]). Coordinates are clamped into the
+//!    fitted box `[-1/2, dims - 1/2]`, which only moves points by float
+//!    rounding. Triangles that become degenerate (all edge cross products
+//!    exactly zero) are skipped and counted: their area went to zero, and
+//!    since shared vertices are quantized once their neighbours still close
+//!    the surface;
+//! 3. **estimate memory** and refuse with [`VoxkitError::Limits`] before
+//!    allocating anything large (see [`estimate_bytes`]);
+//! 4. run the **mode** ([`VoxelizeMode`]) into a sparse [`BrickGrid`].
+//!
+//! # Polylines
+//! Every polyline segment `[a, b]` is voxelized as the exact conservative set
+//! of the degenerate triangle `[a, b, b]`: the voxels whose closed cube the
+//! segment touches (26-connected, a superset of the 6-connected voxels a
+//! tripod line would give). This is used in every mode, including *thin*;
+//! the thin route will switch to the 6-connected tripod line of the line
+//! engine once that lands in the voxelizer, which only removes voxels.
+//!
+//! # Solid and non-watertight input
+//! *Solid* is the thin surface ∪ the interior by majority vote of exact
+//! crossing parity along x, y and z through voxel centres
+//! ([`solid_voxels_voting`]). For a watertight mesh every centre not on the
+//! surface is classified exactly. For a mesh with holes or self-overlaps the
+//! promise is weaker: the surface voxels are always present, and a voxel is
+//! misclassified only if at least two of its three axis lines pass through a
+//! hole (or an odd number of overlapping sheets), so the damage of a missing
+//! triangle stays within that triangle's shadow.
+//!
+//! # Determinism
+//! The resulting voxel set does not depend on the number of threads (the
+//! surface driver and the conservative fold are order-independent unions).
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use crate::error::{Result, VoxkitError};
+use crate::fixed::FRAC_BITS;
+use crate::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
+use crate::mesh::{Mesh, fit_frame, fitted_voxel};
+use crate::voxelize::conservative::{FixedTriangle, conservative_voxels};
+use crate::voxelize::solid::solid_voxels_voting;
+use crate::voxelize::surface::{
+    SurfaceMode, SurfaceTriangle, VOXEL_FRAC_BITS, VOXEL_ONE, voxelize_surface,
+};
+
+/// Shift from [`VOXEL_FRAC_BITS`] (1/256) to the reference's
+/// [`crate::fixed::FRAC_BITS`] (2^-20): the same points, exactly.
+pub const FIXED_SHIFT: u32 = FRAC_BITS - VOXEL_FRAC_BITS;
+
+/// A polyline segment in the fixed-point grid coordinates of [`SurfaceTriangle`].
+pub type SurfaceSegment = [[i64; 3]; 2];
+
+/// Which voxel set to build.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum VoxelizeMode {
+    /// 6-tunnel-free surface (three axis families of lattice lines).
+    Thin,
+    /// 26-tunnel-free surface (four body-diagonal families).
+    Thick,
+    /// Exactly the voxels whose closed cube meets the surface.
+    Conservative,
+    /// Thin surface plus interior by 3-axis parity voting.
+    Solid,
+}
+
+impl VoxelizeMode {
+    /// The mode's command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            VoxelizeMode::Thin => "thin",
+            VoxelizeMode::Thick => "thick",
+            VoxelizeMode::Conservative => "conservative",
+            VoxelizeMode::Solid => "solid",
+        }
+    }
+}
+
+/// A progress report: `done` of `total` steps of the named phase.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Progress {
+    /// Phase name (`"quantize"`, `"surface"`, `"conservative"`, `"solid"`,
+    /// `"polylines"`, `"done"`).
+    pub phase: &'static str,
+    /// Phases finished so far.
+    pub done: u64,
+    /// Phases in this run.
+    pub total: u64,
+}
+
+/// A progress callback (called from the calling thread between phases).
+pub type ProgressFn = dyn Fn(Progress) + Send + Sync;
+
+/// Options of [`voxelize_mesh`].
+#[derive(Clone)]
+pub struct VoxelizeOptions {
+    /// Voxels along the longest side of the mesh's bounding box (`-r N`).
+    pub resolution: u32,
+    /// Which voxel set.
+    pub mode: VoxelizeMode,
+    /// Round vertices to the integer voxel lattice instead of 1/256 voxel.
+    pub snap: bool,
+    /// Cap on the estimated memory of the run.
+    pub limit: MemoryLimit,
+    /// Optional progress callback.
+    pub progress: Option<Arc<ProgressFn>>,
+}
+
+impl std::fmt::Debug for VoxelizeOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("VoxelizeOptions")
+            .field("resolution", &self.resolution)
+            .field("mode", &self.mode)
+            .field("snap", &self.snap)
+            .field("limit", &self.limit)
+            .field("progress", &self.progress.is_some())
+            .finish()
+    }
+}
+
+impl VoxelizeOptions {
+    /// Options for `resolution` and `mode`: exact 1/256 vertices, default
+    /// memory limit, no progress callback.
+    pub fn new(resolution: u32, mode: VoxelizeMode) -> Self {
+        VoxelizeOptions {
+            resolution,
+            mode,
+            snap: false,
+            limit: MemoryLimit::DEFAULT,
+            progress: None,
+        }
+    }
+}
+
+/// What a run did and how long each phase took.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct VoxelizeStats {
+    /// Triangles voxelized.
+    pub triangles: usize,
+    /// Triangles skipped because quantization made them degenerate.
+    pub skipped_triangles: usize,
+    /// Polyline segments voxelized.
+    pub segments: usize,
+    /// Voxels set.
+    pub voxels: u64,
+    /// Occupied 8³ bricks.
+    pub bricks: usize,
+    /// Bytes estimated before the run (what the limit was checked against).
+    pub estimated_bytes: u64,
+    /// Fitting and quantization.
+    pub quantize_ms: f64,
+    /// The mode's kernel (surface, conservative or solid), including
+    /// assembling the brick grid.
+    pub kernel_ms: f64,
+    /// Polyline segments.
+    pub polyline_ms: f64,
+    /// Whole run (everything above).
+    pub total_ms: f64,
+}
+
+/// The result of [`voxelize_mesh`].
+#[derive(Clone, Debug)]
+pub struct Voxelization {
+    /// The voxels, all inside `0..frame.dims`.
+    pub grid: BrickGrid,
+    /// The fitted grid frame.
+    pub frame: GridFrame,
+    /// Counts and timings.
+    pub stats: VoxelizeStats,
+    /// The quantized mesh that was voxelized.
+    pub mesh: QuantizedMesh,
+    /// With [`VoxelizeOptions::snap`]: the same mesh at 1/256 voxel, the
+    /// surface the snapped result is measured against.
+    pub exact: Option<QuantizedMesh>,
+}
+
+impl Voxelization {
+    /// The surface error measures compare against: the 1/256 mesh (also
+    /// when the vertices were snapped).
+    pub fn reference_mesh(&self) -> &QuantizedMesh {
+        self.exact.as_ref().unwrap_or(&self.mesh)
+    }
+}
+
+/// A mesh in fixed-point grid coordinates ([`VOXEL_FRAC_BITS`]).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct QuantizedMesh {
+    /// Non-degenerate triangles.
+    pub triangles: Vec<SurfaceTriangle>,
+    /// Triangles that quantization made degenerate (skipped by the
+    /// voxelizer, kept for the closedness test: a collinear triangle still
+    /// pairs its neighbours' edges).
+    pub degenerate: Vec<SurfaceTriangle>,
+    /// Polyline segments.
+    pub segments: Vec<SurfaceSegment>,
+}
+
+/// Grid-space fixed-point triangles of `mesh` in `frame` (see the module
+/// docs).
+pub fn quantize_mesh(mesh: &Mesh, frame: &GridFrame, snap: bool) -> QuantizedMesh {
+    let hi = frame.dims.map(|d| d as i64 * VOXEL_ONE - VOXEL_ONE / 2);
+    let lo = -VOXEL_ONE / 2;
+    let q: Vec<[i64; 3]> = mesh
+        .positions
+        .par_iter()
+        .map(|&w| {
+            let g = frame.world_to_grid(w);
+            if snap {
+                fitted_voxel(frame, g)
+                    .to_array()
+                    .map(|c| c as i64 * VOXEL_ONE)
+            } else {
+                let f = (g * VOXEL_ONE as f64).round();
+                let c = [f.x, f.y, f.z];
+                std::array::from_fn(|a| (c[a] as i64).clamp(lo, hi[a]))
+            }
+        })
+        .collect();
+    let mut tris = Vec::with_capacity(mesh.triangles.len());
+    let mut skipped = Vec::new();
+    for t in &mesh.triangles {
+        let tri = t.map(|i| q[i as usize]);
+        if is_degenerate(&tri) {
+            skipped.push(tri);
+        } else {
+            tris.push(tri);
+        }
+    }
+    let segments = mesh
+        .polylines
+        .iter()
+        .flat_map(|l| l.windows(2).map(|w| [q[w[0] as usize], q[w[1] as usize]]))
+        .collect();
+    QuantizedMesh {
+        triangles: tris,
+        degenerate: skipped,
+        segments,
+    }
+}
+
+/// Whether the fixed-point triangle has zero area (exact).
+fn is_degenerate(t: &SurfaceTriangle) -> bool {
+    let e1 = [0, 1, 2].map(|a| (t[1][a] - t[0][a]) as i128);
+    let e2 = [0, 1, 2].map(|a| (t[2][a] - t[0][a]) as i128);
+    e1[1] * e2[2] == e1[2] * e2[1]
+        && e1[2] * e2[0] == e1[0] * e2[2]
+        && e1[0] * e2[1] == e1[1] * e2[0]
+}
+
+/// The triangle in the conservative reference's 2^-20 fixed point (exact).
+#[inline]
+pub fn to_reference(t: &SurfaceTriangle) -> FixedTriangle {
+    t.map(|p| p.map(|c| c << FIXED_SHIFT))
+}
+
+/// A segment as the degenerate reference triangle `[a, b, b]`.
+#[inline]
+pub fn segment_to_reference(s: &SurfaceSegment) -> FixedTriangle {
+    let t: SurfaceTriangle = [s[0], s[1], s[1]];
+    to_reference(&t)
+}
+
+/// Sum of the triangles' areas in voxels² (f64; for estimates only).
+fn surface_area(tris: &[SurfaceTriangle]) -> f64 {
+    let s2 = (VOXEL_ONE * VOXEL_ONE) as f64;
+    tris.par_iter()
+        .map(|t| {
+            let e1 = [0, 1, 2].map(|a| (t[1][a] - t[0][a]) as f64);
+            let e2 = [0, 1, 2].map(|a| (t[2][a] - t[0][a]) as f64);
+            let n = [
+                e1[1] * e2[2] - e1[2] * e2[1],
+                e1[2] * e2[0] - e1[0] * e2[2],
+                e1[0] * e2[1] - e1[1] * e2[0],
+            ];
+            0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt() / s2
+        })
+        .sum()
+}
+
+/// Bytes per occupied brick while voxelizing: the slab arena entry (76 B)
+/// plus the final [`BrickGrid`] (64 B mask, 12 B key, ~24 B of map entry).
+pub const BYTES_PER_BRICK: u64 = 180;
+
+/// Estimated peak bytes of a run, computed before allocating:
+/// * the quantized triangles (72 B each) and their slab lists (4 B each);
+/// * *thin/thick/solid surface*: the slab tables, 4 B per 8³ brick cell of
+///   the grid box, plus bricks at [`BYTES_PER_BRICK`], where the number of
+///   bricks is estimated as voxels / 8 (a surface brick usually holds far
+///   more) and voxels as `k · area + 4 · perimeter-ish` with `k = √3` (thin),
+///   3 (thick, conservative);
+/// * *conservative*: per-thread partial grids, counted twice;
+/// * *solid*: four dense bit grids (three axis parities and the vote),
+///   `4 · nx·ny·nz / 8`, plus the solid as bricks (`nx·ny·nz / 512`).
+pub fn estimate_bytes(
+    tris: &[SurfaceTriangle],
+    segments: usize,
+    dims: [usize; 3],
+    mode: VoxelizeMode,
+) -> u64 {
+    let cells = dims.map(|d| d.div_ceil(8) as u64);
+    let table = 4 * cells[0] * cells[1] * cells[2];
+    let area = surface_area(tris);
+    let k = match mode {
+        VoxelizeMode::Thin | VoxelizeMode::Solid => 3f64.sqrt(),
+        VoxelizeMode::Thick | VoxelizeMode::Conservative => 3.0,
+    };
+    let voxels = k * area + 8.0 * (tris.len() + segments) as f64;
+    let bricks = (voxels / 8.0).min((cells[0] * cells[1] * cells[2]) as f64) as u64;
+    let base = 76 * tris.len() as u64;
+    let n = dims.iter().map(|&d| d as u64).product::<u64>();
+    match mode {
+        VoxelizeMode::Thin | VoxelizeMode::Thick => base + table + bricks * BYTES_PER_BRICK,
+        VoxelizeMode::Conservative => base + 2 * bricks * BYTES_PER_BRICK,
+        VoxelizeMode::Solid => {
+            base + table + bricks * BYTES_PER_BRICK + 4 * n.div_ceil(8) + n / 512 * BYTES_PER_BRICK
+        }
+    }
+}
+
+/// Voxelizes `mesh` as described in the [module docs](self).
+///
+/// # Errors
+/// [`VoxkitError::Invalid`] for a zero resolution or a mesh without extent;
+/// [`VoxkitError::Limits`] when the estimate exceeds `opts.limit` (nothing
+/// large has been allocated then); [`VoxkitError::Unsupported`] from the
+/// solid fill for triangles spanning 2^20 voxels or more.
+///
+/// ```
+/// use glam::DVec3;
+/// use voxkit::mesh::Mesh;
+/// use voxkit::voxelize::pipeline::{VoxelizeMode, VoxelizeOptions, voxelize_mesh};
+/// let m = Mesh::from_parts("tri", vec![DVec3::ZERO, DVec3::X, DVec3::Y], vec![[0, 1, 2]], vec![]).unwrap();
+/// let v = voxelize_mesh(&m, &VoxelizeOptions::new(8, VoxelizeMode::Thin)).unwrap();
+/// assert_eq!(v.frame.dims, [8, 8, 1]);
+/// // The triangle lies in the plane z = -1/2: every lattice point of its
+/// // projection gives one voxel in layer 0 (x + y ≤ 7.5 → 36 voxels).
+/// assert_eq!(v.stats.voxels, 36);
+/// ```
+pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization> {
+    let start = Instant::now();
+    let total_phases = 3 + u64::from(opts.mode == VoxelizeMode::Solid);
+    let mut done = 0;
+    let mut report = |phase: &'static str| {
+        if let Some(p) = &opts.progress {
+            p(Progress {
+                phase,
+                done,
+                total: total_phases,
+            });
+        }
+        done += 1;
+    };
+    report("quantize");
+    let frame = fit_frame(mesh.bounds(), opts.resolution)?;
+    if frame.dims.iter().any(|&d| d > (1 << 22)) {
+        return Err(VoxkitError::Unsupported(format!(
+            "resolution {} exceeds the supported 2^22 voxels per axis",
+            opts.resolution
+        )));
+    }
+    let quantized = quantize_mesh(mesh, &frame, opts.snap);
+    let (triangles, skipped, segments) = (
+        &quantized.triangles,
+        &quantized.degenerate,
+        &quantized.segments,
+    );
+    let estimated = estimate_bytes(triangles, segments.len(), frame.dims, opts.mode);
+    opts.limit.check(
+        &format!(
+            "voxelizing {} triangles into {:?} ({})",
+            triangles.len(),
+            frame.dims,
+            opts.mode.name()
+        ),
+        estimated as u128,
+        1,
+    )?;
+    let t_quant = start.elapsed();
+
+    let dims_i = frame.dims.map(|d| d as i32);
+    let t0 = Instant::now();
+    let mut grid = match opts.mode {
+        VoxelizeMode::Thin | VoxelizeMode::Thick => {
+            report("surface");
+            let surface = if opts.mode == VoxelizeMode::Thin {
+                SurfaceMode::Thin
+            } else {
+                SurfaceMode::Thick
+            };
+            bricks_to_grid(voxelize_surface(triangles, dims_i, surface))
+        }
+        VoxelizeMode::Conservative => {
+            report("conservative");
+            conservative_grid(triangles.par_iter().map(to_reference), frame.dims)
+        }
+        VoxelizeMode::Solid => {
+            report("surface");
+            let mut g = bricks_to_grid(voxelize_surface(triangles, dims_i, SurfaceMode::Thin));
+            report("solid");
+            let fixed: Vec<FixedTriangle> = triangles.par_iter().map(to_reference).collect();
+            let inside = solid_voxels_voting(&fixed, frame.dims, opts.limit)?;
+            g.union_with(&BrickGrid::from_bit_grid(&inside));
+            g
+        }
+    };
+    let kernel_ms = ms(t0.elapsed());
+
+    report("polylines");
+    let t1 = Instant::now();
+    if !segments.is_empty() {
+        let lines = conservative_grid(segments.par_iter().map(segment_to_reference), frame.dims);
+        grid.union_with(&lines);
+    }
+    let polyline_ms = ms(t1.elapsed());
+    report("done");
+
+    let stats = VoxelizeStats {
+        triangles: triangles.len(),
+        skipped_triangles: skipped.len(),
+        segments: segments.len(),
+        voxels: grid.count(),
+        bricks: grid.brick_count(),
+        estimated_bytes: estimated,
+        quantize_ms: ms(t_quant),
+        kernel_ms,
+        polyline_ms,
+        total_ms: ms(start.elapsed()),
+    };
+    Ok(Voxelization {
+        grid,
+        frame,
+        stats,
+        exact: opts.snap.then(|| quantize_mesh(mesh, &frame, false)),
+        mesh: quantized,
+    })
+}
+
+fn ms(d: std::time::Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+/// The surface driver's bricks (each exactly once) as a [`BrickGrid`].
+fn bricks_to_grid(bricks: Vec<([i32; 3], crate::voxelize::slab::BrickBits)>) -> BrickGrid {
+    let mut g = BrickGrid::with_capacity(bricks.len());
+    for (corner, bits) in &bricks {
+        g.or_brick(Voxel::from_array(*corner) >> 3, bits);
+    }
+    g
+}
+
+/// The exact conservative set of reference triangles, restricted to the grid
+/// box `0..dims`. Voxels just outside can only be touched on the box's faces
+/// (every point lies in `[-1/2, dims - 1/2]`), where the voxel inside the
+/// box is touched too, so dropping them is the same as clamping them.
+/// Parallel fold of per-thread grids; the union does not depend on the split.
+pub fn conservative_grid(
+    tris: impl ParallelIterator<Item = FixedTriangle>,
+    dims: [usize; 3],
+) -> BrickGrid {
+    let d = dims.map(|d| d as i32);
+    let inside =
+        move |v: Voxel| v.x >= 0 && v.y >= 0 && v.z >= 0 && v.x < d[0] && v.y < d[1] && v.z < d[2];
+    let parts: Vec<BrickGrid> = tris
+        .fold(BrickGrid::new, |mut g, t| {
+            // Coordinates are within the fitted grid box, far inside the
+            // reference's ±2^30 range, so construction cannot fail.
+            if let Ok(it) = conservative_voxels(&t) {
+                for v in it.filter(|&v| inside(v)) {
+                    g.insert(v);
+                }
+            }
+            g
+        })
+        .collect();
+    BrickGrid::merge(parts)
+}
