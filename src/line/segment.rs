@@ -219,8 +219,13 @@ impl Frame {
                 m = i;
             }
         }
-        let others: Vec<usize> = (0..3).filter(|&i| i != m).collect();
-        let perm = [m, others[0], others[1]];
+        // The other two axes in x, y, z order (no allocation: this runs once
+        // per line, and lines are short).
+        let perm = match m {
+            0 => [0, 1, 2],
+            1 => [1, 0, 2],
+            _ => [2, 0, 1],
+        };
         let sign = perm.map(|w| wsign[w]);
         let d = perm.map(|w| wd[w]);
         let la = perm.map(|w| wsign[w] * (a[w] - v0w[w] * ONE));
