@@ -3,6 +3,7 @@
 mod amanatides_woo;
 mod bricks;
 mod conservative;
+mod demo;
 mod formats;
 mod line2d;
 mod lines;

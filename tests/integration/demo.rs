@@ -1,0 +1,57 @@
+//! `voxkit demo` end to end: it runs from any directory (the mesh is
+//! embedded), prints both tables and writes its files.
+
+use std::process::Command;
+
+#[test]
+fn demo_prints_tables_and_writes_files() {
+    let dir = std::env::temp_dir().join(format!("voxkit-demo-test-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_voxkit"))
+        .args(["demo", "--segments", "300", "--resolution", "48"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    for row in [
+        "| 26-line |",
+        "| tripod 6-line |",
+        "| Amanatides-Woo |",
+        "| thin |",
+        "| thick |",
+    ] {
+        assert!(text.contains(row), "missing {row} in:\n{text}");
+    }
+    // The tripod line's containment column is exact: every judged line covers its segment.
+    let tripod = text
+        .lines()
+        .find(|l| l.starts_with("| tripod 6-line |"))
+        .unwrap();
+    assert_eq!(
+        tripod.split('|').nth(5).unwrap().trim(),
+        "100.0%",
+        "{tripod}"
+    );
+    // The conservative row has no missing or extra voxels against the exact reference.
+    let cons = text
+        .lines()
+        .find(|l| l.starts_with("| conservative |"))
+        .unwrap();
+    let cells: Vec<&str> = cons.split('|').map(str::trim).collect();
+    assert_eq!((cells[4], cells[5]), ("0", "0"), "{cons}");
+    let (grid, _) = voxkit::io::read_voxels(
+        &dir.join("out/spot_thin.binvox"),
+        voxkit::grid::MemoryLimit::DEFAULT,
+    )
+    .unwrap();
+    assert!(grid.count() > 0);
+    let png = std::fs::read(dir.join("out/spot.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
