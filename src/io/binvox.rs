@@ -49,9 +49,7 @@ pub fn write(
     let mut out = Vec::with_capacity(1 << 16);
     // x slowest, z, y fastest.
     for_each_slab(grid, [d, d, d], [0, 2, 1], limit, |slab| {
-        for &b in slab {
-            rle.push(b, &mut out);
-        }
+        rle.push_slice(slab, &mut out);
         w.write_all(&out)?;
         out.clear();
         Ok(())
@@ -69,21 +67,53 @@ struct Rle {
 }
 
 impl Rle {
-    #[inline]
-    fn push(&mut self, b: u8, out: &mut Vec<u8>) {
-        if self.count > 0 && (b != self.value || self.count == 255) {
-            out.extend_from_slice(&[self.value, self.count]);
-            self.count = 0;
+    /// Encodes `bytes` (each 0 or 1), continuing the current run. Runs are
+    /// found eight bytes at a time, so a mostly empty grid costs about one
+    /// word compare per eight voxels instead of one branch per voxel.
+    fn push_slice(&mut self, bytes: &[u8], out: &mut Vec<u8>) {
+        let mut i = 0;
+        while i < bytes.len() {
+            let v = bytes[i];
+            let run = run_length(&bytes[i..], v);
+            let mut left = run;
+            while left > 0 {
+                if self.count > 0 && (v != self.value || self.count == 255) {
+                    out.extend_from_slice(&[self.value, self.count]);
+                    self.count = 0;
+                }
+                self.value = v;
+                let take = left.min(255 - self.count as usize);
+                self.count += take as u8;
+                left -= take;
+            }
+            i += run;
         }
-        self.value = b;
-        self.count += 1;
     }
+
     fn finish(&mut self, out: &mut Vec<u8>) {
         if self.count > 0 {
             out.extend_from_slice(&[self.value, self.count]);
             self.count = 0;
         }
     }
+}
+
+/// Length of the run of `v` at the start of `bytes` (at least 1 when
+/// `bytes[0] == v`).
+#[inline]
+fn run_length(bytes: &[u8], v: u8) -> usize {
+    let pattern = u64::from_ne_bytes([v; 8]);
+    let mut n = 0;
+    let mut chunks = bytes.chunks_exact(8);
+    for chunk in &mut chunks {
+        let word = u64::from_le_bytes(chunk.try_into().expect("chunk of 8"));
+        let diff = word ^ pattern;
+        if diff != 0 {
+            return n + (diff.trailing_zeros() / 8) as usize;
+        }
+        n += 8;
+    }
+    n + chunks.remainder().iter().take_while(|&&b| b == v).count()
 }
 
 /// Reads a binvox file from memory. Errors: bad or missing header lines,
@@ -184,4 +214,61 @@ pub fn read(bytes: &[u8], limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)> 
     }
     let hmax = *dims.iter().max().expect("three dims") as f64;
     Ok((grid, GridFrame::new(translate, scale / hmax, dims)))
+}
+
+#[cfg(test)]
+mod rle_tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// The plain one-byte-at-a-time encoder the word-wise one replaces.
+    fn reference(chunks: &[Vec<u8>]) -> Vec<u8> {
+        let mut out = Vec::new();
+        let (mut value, mut count) = (0u8, 0u8);
+        for &b in chunks.iter().flatten() {
+            if count > 0 && (b != value || count == 255) {
+                out.extend_from_slice(&[value, count]);
+                count = 0;
+            }
+            value = b;
+            count += 1;
+        }
+        if count > 0 {
+            out.extend_from_slice(&[value, count]);
+        }
+        out
+    }
+
+    #[test]
+    fn word_wise_runs_match_the_bytewise_encoder() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        for case in 0..300 {
+            // Slabs of random length made of runs of random length, so runs
+            // cross slab boundaries, word boundaries and the 255 limit.
+            let chunks: Vec<Vec<u8>> = (0..rng.random_range(1..5))
+                .map(|_| {
+                    let mut v = Vec::new();
+                    let len = rng.random_range(0..2000);
+                    while v.len() < len {
+                        let run = if case % 2 == 0 {
+                            rng.random_range(1..20)
+                        } else {
+                            rng.random_range(1..700)
+                        };
+                        let b = rng.random_range(0..2u8);
+                        v.extend(std::iter::repeat_n(b, run));
+                    }
+                    v.truncate(len);
+                    v
+                })
+                .collect();
+            let mut rle = Rle::default();
+            let mut out = Vec::new();
+            for c in &chunks {
+                rle.push_slice(c, &mut out);
+            }
+            rle.finish(&mut out);
+            assert_eq!(out, reference(&chunks), "case {case}");
+        }
+    }
 }
