@@ -6,6 +6,8 @@ use std::ops::ControlFlow;
 use glam::{DVec3, IVec3};
 use proptest::prelude::*;
 use proptest::test_runner::{Config as ProptestConfig, RngSeed};
+
+use crate::strategies::point;
 use voxkit::Connectivity;
 use voxkit::fixed::{FixedPoint, HALF, ONE, to_f64, voxel_of};
 use voxkit::grid::{DenseGrid, MemoryLimit};
@@ -83,25 +85,6 @@ fn check_path(a: FixedPoint, b: FixedPoint, path: &[IVec3]) -> Result<(), TestCa
     prop_assert_eq!(first_untouched(a, b, path), None);
     prop_assert!(covers_segment(a, b, path));
     Ok(())
-}
-
-/// A fixed-point coordinate biased towards faces, centres and quarters.
-fn coord(range: i64) -> impl Strategy<Value = i64> {
-    (
-        -range..=range,
-        prop_oneof![
-            Just(0i64),
-            Just(HALF),
-            Just(-HALF),
-            Just(ONE / 4),
-            -HALF..HALF
-        ],
-    )
-        .prop_map(|(k, f)| k * ONE + f)
-}
-
-fn point(range: i64) -> impl Strategy<Value = FixedPoint> {
-    [coord(range), coord(range), coord(range)]
 }
 
 proptest! {

@@ -10,6 +10,7 @@ mod lines;
 mod mesh_io;
 mod raster;
 mod solid;
+mod strategies;
 mod topology;
 mod triangle_index;
 mod tunnels;

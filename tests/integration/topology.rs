@@ -5,6 +5,8 @@
 use glam::IVec3;
 use proptest::prelude::*;
 use proptest::test_runner::{Config as ProptestConfig, RngSeed};
+
+use crate::strategies::point;
 use voxkit::Connectivity;
 use voxkit::fixed::{FixedPoint, HALF, ONE};
 use voxkit::topology::{
@@ -221,26 +223,6 @@ fn connectivity_of_hand_paths() {
     assert!(is_connected_path(&p26, Connectivity::TwentySix));
     let jump = [v(0, 0, 0), v(1, 0, 0), v(3, 0, 0)];
     assert_eq!(connectivity_break(&jump, Connectivity::TwentySix), Some(1));
-}
-
-/// A fixed-point coordinate `k·ONE + f` with fractions biased towards
-/// faces, centres and quarter points so that ties are common.
-fn coord(range: i64) -> impl Strategy<Value = i64> {
-    (
-        -range..=range,
-        prop_oneof![
-            Just(0i64),
-            Just(HALF),
-            Just(-HALF),
-            Just(ONE / 4),
-            -HALF..HALF
-        ],
-    )
-        .prop_map(|(k, f)| k * ONE + f)
-}
-
-fn point(range: i64) -> impl Strategy<Value = FixedPoint> {
-    [coord(range), coord(range), coord(range)]
 }
 
 fn config(seed: u64, cases: u32) -> ProptestConfig {
