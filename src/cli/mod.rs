@@ -11,12 +11,14 @@ use clap::{Parser, Subcommand};
 mod check;
 mod demo;
 mod line;
+mod measure;
 mod triangle;
 mod voxelize;
 
 pub use check::CheckArgs;
 pub use demo::DemoArgs;
 pub use line::LineArgs;
+pub use measure::MeasureArgs;
 pub use triangle::TriangleArgs;
 pub use voxelize::{ModeArg, VoxelizeArgs};
 
@@ -43,6 +45,8 @@ pub enum Command {
     Voxelize(VoxelizeArgs),
     /// Check a voxel file's surface for N-tunnels (exit 1 if one exists).
     Check(CheckArgs),
+    /// Measure any tool's voxels against the exact conservative set of a mesh.
+    Measure(MeasureArgs),
 }
 
 /// A command-line failure: the message for stderr and the exit code.
@@ -84,6 +88,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<(), CliError> {
         Command::Triangle(args) => triangle::run(args, out),
         Command::Voxelize(args) => voxelize::run(args, out),
         Command::Check(args) => check::run(args, out),
+        Command::Measure(args) => measure::run(args, out),
     }
 }
 

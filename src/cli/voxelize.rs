@@ -25,7 +25,7 @@ use super::CliError;
 use crate::grid::MemoryLimit;
 use crate::io::{VoxelFormat, write_voxels_limited};
 use crate::mesh::Mesh;
-use crate::voxelize::measure::measure_voxelization;
+use crate::voxelize::measure::{ErrorMeasures, measure_voxelization};
 use crate::voxelize::pipeline::{Progress, VoxelizeMode, VoxelizeOptions, voxelize_mesh};
 
 /// The `--mode` values.
@@ -92,6 +92,31 @@ pub fn peak_rss_mib() -> Option<f64> {
     let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb / 1024.0)
+}
+
+/// Adds the `--measure` keys (`measure_ms`, `reference_voxels`, `missing`,
+/// `extra`, `max_distance`, `mean_distance`, `far_voxels`, `closed`,
+/// `tunnel6`, `tunnel26`, `measure_note`) to a JSON object.
+pub(crate) fn insert_measures(
+    obj: &mut serde_json::Map<String, serde_json::Value>,
+    m: &ErrorMeasures,
+    measure_ms: f64,
+) {
+    for (k, val) in [
+        ("measure_ms", serde_json::json!(measure_ms)),
+        ("reference_voxels", m.reference_voxels.into()),
+        ("missing", m.missing.into()),
+        ("extra", m.extra.into()),
+        ("max_distance", m.max_distance.into()),
+        ("mean_distance", m.mean_distance.into()),
+        ("far_voxels", m.far_voxels.into()),
+        ("closed", m.closed.into()),
+        ("tunnel6", serde_json::json!(m.tunnel6)),
+        ("tunnel26", serde_json::json!(m.tunnel26)),
+        ("measure_note", serde_json::json!(m.note)),
+    ] {
+        obj.insert(k.to_string(), val);
+    }
 }
 
 fn ms(t: Instant) -> f64 {
@@ -184,22 +209,11 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
     });
     if let Some((m, measure_ms)) = measured {
         let m = m?;
-        let obj = j.as_object_mut().expect("json! of an object literal");
-        for (k, val) in [
-            ("measure_ms", serde_json::json!(measure_ms)),
-            ("reference_voxels", m.reference_voxels.into()),
-            ("missing", m.missing.into()),
-            ("extra", m.extra.into()),
-            ("max_distance", m.max_distance.into()),
-            ("mean_distance", m.mean_distance.into()),
-            ("far_voxels", m.far_voxels.into()),
-            ("closed", m.closed.into()),
-            ("tunnel6", serde_json::json!(m.tunnel6)),
-            ("tunnel26", serde_json::json!(m.tunnel26)),
-            ("measure_note", serde_json::json!(m.note)),
-        ] {
-            obj.insert(k.to_string(), val);
-        }
+        insert_measures(
+            j.as_object_mut().expect("json! of an object literal"),
+            &m,
+            measure_ms,
+        );
     }
     j.as_object_mut()
         .expect("json! of an object literal")

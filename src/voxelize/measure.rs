@@ -36,14 +36,16 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::error::Result;
+use crate::error::{Result, VoxkitError};
 use crate::grid::brick::{BrickMask, FxHasher};
-use crate::grid::{BitGrid, BrickGrid, MemoryLimit, Voxel};
+use crate::grid::{BitGrid, BrickGrid, Dims, GridFrame, MemoryLimit, Voxel};
+use crate::mesh::Mesh;
 use crate::metric::Connectivity;
 use crate::topology::tunnels::closed_surface_tunnels;
 use crate::voxelize::conservative::conservative_voxels;
 use crate::voxelize::pipeline::{
-    SurfaceSegment, Voxelization, conservative_grid, segment_to_reference, to_reference,
+    QuantizedMesh, SurfaceSegment, Voxelization, conservative_grid, quantize_mesh,
+    segment_to_reference, to_reference,
 };
 use crate::voxelize::solid::solid_voxels_voting;
 use crate::voxelize::surface::{SurfaceTriangle, VOXEL_ONE};
@@ -79,8 +81,45 @@ pub struct ErrorMeasures {
 /// # Errors
 /// Only from the solid fill (triangles spanning 2^20 voxels or more).
 pub fn measure_voxelization(v: &Voxelization, limit: MemoryLimit) -> Result<ErrorMeasures> {
-    let dims = v.frame.dims;
-    let rm = v.reference_mesh();
+    measure_voxel_set(&v.grid, v.frame.dims, v.reference_mesh(), &v.mesh, limit)
+}
+
+/// Measures any voxel set `grid` (inside `0..dims`) against the exact
+/// conservative set of `reference`, with tunnel verdicts against the inside
+/// of `voxelized` (the mesh the set was made from; pass `reference` again
+/// when there is no other). This is how another tool's output is measured
+/// ([`measure_external`]).
+///
+/// ```
+/// use voxkit::grid::{BrickGrid, MemoryLimit, Voxel};
+/// use voxkit::voxelize::measure::measure_voxel_set;
+/// use voxkit::voxelize::pipeline::QuantizedMesh;
+/// use voxkit::voxelize::surface::VOXEL_ONE;
+/// // A triangle in the plane z = 1 (grid space) inside a 4³ grid.
+/// let (o, z) = (VOXEL_ONE, VOXEL_ONE);
+/// let mesh = QuantizedMesh {
+///     triangles: vec![[[0, 0, z], [3 * o, 0, z], [0, 3 * o, z]]],
+///     ..Default::default()
+/// };
+/// let mut grid = BrickGrid::new();
+/// grid.insert(Voxel::new(0, 0, 1));
+/// grid.insert(Voxel::new(3, 3, 3)); // far from the triangle
+/// let m = measure_voxel_set(&grid, [4, 4, 4], &mesh, &mesh, MemoryLimit::default()).unwrap();
+/// assert_eq!(m.reference_voxels, 10);
+/// assert_eq!((m.missing, m.extra, m.far_voxels), (9, 1, 1));
+/// assert_eq!(m.max_distance, 0.0);
+/// ```
+///
+/// # Errors
+/// Only from the solid fill (triangles spanning 2^20 voxels or more).
+pub fn measure_voxel_set(
+    grid: &BrickGrid,
+    dims: Dims,
+    reference_mesh: &QuantizedMesh,
+    voxelized: &QuantizedMesh,
+    limit: MemoryLimit,
+) -> Result<ErrorMeasures> {
+    let rm = reference_mesh;
     let mut reference = conservative_grid(rm.triangles.par_iter().map(to_reference), dims);
     reference.union_with(&conservative_grid(
         rm.segments.par_iter().map(segment_to_reference),
@@ -88,18 +127,18 @@ pub fn measure_voxelization(v: &Voxelization, limit: MemoryLimit) -> Result<Erro
     ));
     let (mut missing, mut extra) = (0, 0);
     for (b, m) in reference.bricks() {
-        let o = v.grid.brick(b).copied().unwrap_or([0; 8]);
+        let o = grid.brick(b).copied().unwrap_or([0; 8]);
         missing += (0..8)
             .map(|w| (m[w] & !o[w]).count_ones() as u64)
             .sum::<u64>();
     }
-    for (b, o) in v.grid.bricks() {
+    for (b, o) in grid.bricks() {
         let m = reference.brick(b).copied().unwrap_or([0; 8]);
         extra += (0..8)
             .map(|w| (o[w] & !m[w]).count_ones() as u64)
             .sum::<u64>();
     }
-    let (max_distance, mean_distance, far_voxels) = distances(&v.grid, &rm.triangles, &rm.segments);
+    let (max_distance, mean_distance, far_voxels) = distances(grid, &rm.triangles, &rm.segments);
     let mut out = ErrorMeasures {
         reference_voxels: reference.count(),
         missing,
@@ -107,7 +146,7 @@ pub fn measure_voxelization(v: &Voxelization, limit: MemoryLimit) -> Result<Erro
         max_distance,
         mean_distance,
         far_voxels,
-        closed: is_closed(&v.mesh.triangles, &v.mesh.degenerate),
+        closed: is_closed(&voxelized.triangles, &voxelized.degenerate),
         ..Default::default()
     };
     drop(reference);
@@ -124,11 +163,11 @@ pub fn measure_voxelization(v: &Voxelization, limit: MemoryLimit) -> Result<Erro
         ));
         return Ok(out);
     }
-    let fixed: Vec<_> = v.mesh.triangles.par_iter().map(to_reference).collect();
-    let occ = v.grid.to_bit_grid(dims, limit)?;
+    let fixed: Vec<_> = voxelized.triangles.par_iter().map(to_reference).collect();
+    let occ = grid.to_bit_grid(dims, limit)?;
     let seeds = {
         let solid = solid_voxels_voting(&fixed, dims, limit)?;
-        let interior = solid.count_ones().saturating_sub(v.grid.count());
+        let interior = solid.count_ones().saturating_sub(grid.count());
         if limit
             .check(
                 "tunnel seeds",
@@ -150,6 +189,81 @@ pub fn measure_voxelization(v: &Voxelization, limit: MemoryLimit) -> Result<Erro
         out.note = Some("no inside voxel off the surface: nothing to tunnel into".into());
     }
     Ok(out)
+}
+
+/// Measures another tool's voxels against `mesh` (world space) on that
+/// tool's lattice: voxel `(i, j, k)` is the cube `[origin + i·h, origin +
+/// (i+1)·h]` per axis (`origin` = world min corner of voxel 0, `h` =
+/// `voxel_size`; indices may be negative). The frame is widened to hold every
+/// voxel and the mesh with one voxel to spare, so nothing is clipped; the
+/// mesh is quantized to 1/256 voxel in that frame (the reference surface of
+/// [`measure_voxelization`]). Returns the measures and the widened frame.
+///
+/// # Errors
+/// A non-finite or non-positive voxel size or origin, an empty mesh, a grid
+/// larger than `limit` allows, or the solid fill's errors.
+pub fn measure_external(
+    mesh: &Mesh,
+    origin: DVec3,
+    voxel_size: f64,
+    voxels: &[[i64; 3]],
+    limit: MemoryLimit,
+) -> Result<(ErrorMeasures, GridFrame)> {
+    if !(voxel_size.is_finite() && voxel_size > 0.0 && origin.is_finite()) {
+        return Err(VoxkitError::invalid(format!(
+            "measure: voxel size {voxel_size} and origin {origin} must be finite, size > 0"
+        )));
+    }
+    if mesh.triangles.is_empty() && mesh.polylines.is_empty() {
+        return Err(VoxkitError::invalid(
+            "measure: the mesh has no triangles or polylines",
+        ));
+    }
+    let probe = GridFrame::new(origin, voxel_size, [1, 1, 1]);
+    let (blo, bhi) = mesh.bounds();
+    let (glo, ghi) = (probe.world_to_grid(blo), probe.world_to_grid(bhi));
+    let mut lo = [0i64; 3];
+    let mut hi = [0i64; 3];
+    for a in 0..3 {
+        lo[a] = (glo[a] + 0.5).floor() as i64 - 1;
+        hi[a] = (ghi[a] + 0.5).floor() as i64 + 1;
+    }
+    for v in voxels {
+        for a in 0..3 {
+            lo[a] = lo[a].min(v[a]);
+            hi[a] = hi[a].max(v[a]);
+        }
+    }
+    let dims: [usize; 3] = std::array::from_fn(|a| (hi[a] - lo[a] + 1) as usize);
+    if dims.iter().any(|&d| d > i32::MAX as usize / 2) {
+        return Err(VoxkitError::invalid(format!(
+            "measure: the voxels and the mesh span {dims:?} voxels, too many"
+        )));
+    }
+    limit.check(
+        "measure grid",
+        dims.iter()
+            .map(|&d| d as u128)
+            .product::<u128>()
+            .div_ceil(8),
+        6,
+    )?;
+    let frame = GridFrame::new(
+        origin + DVec3::new(lo[0] as f64, lo[1] as f64, lo[2] as f64) * voxel_size,
+        voxel_size,
+        dims,
+    );
+    let mut grid = BrickGrid::new();
+    for v in voxels {
+        grid.insert(Voxel::new(
+            (v[0] - lo[0]) as i32,
+            (v[1] - lo[1]) as i32,
+            (v[2] - lo[2]) as i32,
+        ));
+    }
+    let q = quantize_mesh(mesh, &frame, false);
+    let m = measure_voxel_set(&grid, dims, &q, &q, limit)?;
+    Ok((m, frame))
 }
 
 fn inside_seeds(solid: &BitGrid, occ: &BitGrid) -> Vec<Voxel> {

@@ -17,7 +17,7 @@ use voxkit::grid::{BrickGrid, MemoryLimit};
 use voxkit::io::{read_voxels, write_voxels};
 use voxkit::mesh::Mesh;
 use voxkit::voxelize::conservative::triangle_meets_voxel;
-use voxkit::voxelize::measure::{is_closed, measure_voxelization};
+use voxkit::voxelize::measure::{is_closed, measure_external, measure_voxelization};
 use voxkit::voxelize::pipeline::{
     Voxelization, VoxelizeMode, VoxelizeOptions, segment_to_reference, to_reference, voxelize_mesh,
 };
@@ -577,4 +577,150 @@ fn cli_check_finds_punched_hole() {
     assert_eq!(o.status.code(), Some(2));
     let o = voxkit(&["check", good.to_str().unwrap(), "--tunnels", "7"]);
     assert_eq!(o.status.code(), Some(2));
+}
+
+// ------------------------------------------------ measuring other tools
+
+/// A closed tetrahedron with dyadic vertices, so that every frame below maps
+/// it to fixed point exactly, and its conservative set on a lattice with
+/// corner `origin` and unit voxels by brute force over every nearby voxel.
+fn tetrahedron_and_reference(origin: DVec3) -> (Mesh, Vec<[i64; 3]>) {
+    let p = vec![
+        DVec3::new(0.25, 0.5, 0.125),
+        DVec3::new(6.375, 1.25, 0.75),
+        DVec3::new(1.5, 5.625, 1.0),
+        DVec3::new(2.0, 2.5, 6.5),
+    ];
+    let faces = vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
+    let mesh = Mesh::from_parts("tetrahedron", p.clone(), faces.clone(), vec![]).unwrap();
+    // Grid coordinate of world w on this lattice: w − origin − 1/2.
+    let fixed = |w: DVec3| {
+        let g = (w - origin - DVec3::splat(0.5)) * (1u64 << voxkit::fixed::FRAC_BITS) as f64;
+        [g.x as i64, g.y as i64, g.z as i64]
+    };
+    let mut reference = Vec::new();
+    for x in -3..10 {
+        for y in -3..10 {
+            for z in -3..10 {
+                let v = IVec3::new(x, y, z);
+                let hit = faces.iter().any(|f| {
+                    let t = f.map(|i| fixed(p[i as usize]));
+                    triangle_meets_voxel(&t, v).unwrap()
+                });
+                if hit {
+                    reference.push([x as i64, y as i64, z as i64]);
+                }
+            }
+        }
+    }
+    (mesh, reference)
+}
+
+#[test]
+fn measure_external_against_brute_force_on_a_shifted_lattice() {
+    // Open3D's lattice is half a voxel off ours; any origin must work.
+    for origin in [DVec3::ZERO, DVec3::new(-0.5, 0.25, -1.5)] {
+        let (mesh, reference) = tetrahedron_and_reference(origin);
+        let limit = MemoryLimit::default();
+        let (m, frame) = measure_external(&mesh, origin, 1.0, &reference, limit).unwrap();
+        assert_eq!(m.reference_voxels, reference.len() as u64, "{origin}");
+        assert_eq!((m.missing, m.extra, m.far_voxels), (0, 0, 0));
+        assert!(m.closed);
+        assert_eq!((m.tunnel6, m.tunnel26), (Some(false), Some(false)));
+        assert!(m.max_distance <= 3f64.sqrt() / 2.0 + 1e-9);
+        // The widened frame keeps the lattice: its origin moved by whole voxels.
+        let shift = (frame.origin - origin) / frame.voxel_size;
+        assert_eq!(shift, shift.round());
+
+        // Drop 5 voxels and add a far one: exactly 5 missing, 1 extra and far.
+        let mut edited = reference[5..].to_vec();
+        edited.push([40, 40, 40]);
+        let (m, _) = measure_external(&mesh, origin, 1.0, &edited, limit).unwrap();
+        assert_eq!((m.missing, m.extra, m.far_voxels), (5, 1, 1));
+    }
+    let (mesh, reference) = tetrahedron_and_reference(DVec3::ZERO);
+    let bad = measure_external(&mesh, DVec3::ZERO, 0.0, &reference, MemoryLimit::default());
+    assert!(matches!(bad, Err(VoxkitError::Invalid(_))));
+}
+
+#[test]
+fn cli_measure_reads_index_lists_and_voxel_files() {
+    use ndarray_npy::WriteNpyExt;
+    let origin = DVec3::new(-0.5, 0.25, -1.5);
+    let (mesh, reference) = tetrahedron_and_reference(origin);
+    let obj = tmp("tet.obj");
+    let mut text = String::new();
+    for p in &mesh.positions {
+        text += &format!("v {} {} {}\n", p.x, p.y, p.z);
+    }
+    for t in &mesh.triangles {
+        text += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    std::fs::write(&obj, text).unwrap();
+    let coords =
+        ndarray::Array2::from_shape_fn((reference.len(), 3), |(i, a)| reference[i][a] as i32);
+    let npy = tmp("tet_coords.npy");
+    coords
+        .write_npy(std::fs::File::create(&npy).unwrap())
+        .unwrap();
+    let (objs, npys) = (obj.to_str().unwrap(), npy.to_str().unwrap());
+    let o = voxkit(&[
+        "measure",
+        objs,
+        npys,
+        "--origin",
+        "-0.5",
+        "0.25",
+        "-1.5",
+        "--voxel-size",
+        "1",
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["voxels"], serde_json::json!(reference.len()));
+    assert_eq!(j["missing"], serde_json::json!(0));
+    assert_eq!(j["extra"], serde_json::json!(0));
+    assert_eq!(j["tunnel6"], serde_json::json!(false));
+    // An index list without a frame is refused with exit 2.
+    let o = voxkit(&["measure", objs, npys]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--origin"));
+    // Our own voxel file carries its frame: voxelize, then measure the file.
+    let vox = tmp("tet.binvox");
+    let o = voxkit(&[
+        "voxelize",
+        objs,
+        "-r",
+        "16",
+        "-o",
+        vox.to_str().unwrap(),
+        "--mode",
+        "conservative",
+        "--force",
+        "--json",
+        "--measure",
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let o = voxkit(&["measure", objs, vox.to_str().unwrap()]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["voxels"], v["voxels"]);
+    assert_eq!(j["extra"], serde_json::json!(0));
+    assert_eq!(j["tunnel6"], serde_json::json!(false));
 }
