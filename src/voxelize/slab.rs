@@ -83,20 +83,56 @@ impl SlabBricks {
         // All three are non-negative here: shifts and masks, not signed division.
         let (bx, by, bz) = ((x >> 3) as usize, (y >> 3) as usize, (z >> 3) as usize);
         let cell = bx + self.nb[0] * (by + self.nb[1] * bz);
-        // Consecutive crossings of a row mostly share a brick: skip the table.
-        if cell == self.last.0 {
-            let bits = &mut self.bricks[self.last.1 as usize - 1].1;
-            bits[(z & 7) as usize] |= 1u64 << ((x & 7) | ((y & 7) << 3));
-            return;
+        // Consecutive crossings mostly share a brick: the table and the
+        // arena's growth are off the hot path.
+        if cell != self.last.0 {
+            self.switch_brick(cell, [bx, by, bz]);
         }
+        let bits = &mut self.bricks[self.last.1 as usize - 1].1;
+        bits[(z & 7) as usize] |= 1u64 << ((x & 7) | ((y & 7) << 3));
+    }
+
+    /// Whether the voxel box `lo..=hi` lies inside the grid and this slab,
+    /// so that [`SlabBricks::set_inside`] may set any voxel of it.
+    #[inline]
+    pub fn holds(&self, lo: [i32; 3], hi: [i32; 3]) -> bool {
+        lo[0] >= 0
+            && lo[1] >= 0
+            && lo[2] >= self.z0
+            && hi[0] < self.dims[0]
+            && hi[1] < self.dims[1]
+            && hi[2] < self.z1
+    }
+
+    /// Sets voxel `v`, which the caller knows lies inside the grid and this
+    /// slab (a box accepted by [`SlabBricks::holds`]): [`SlabBricks::set`]
+    /// without the clamping and the slab test. A voxel outside still cannot
+    /// corrupt memory (indices are checked), but may be set in a wrong brick.
+    #[inline(always)]
+    pub fn set_inside(&mut self, v: Voxel) {
+        debug_assert!(self.holds(v.to_array(), v.to_array()), "{v} outside");
+        let (x, y, z) = (v.x as u32, v.y as u32, (v.z - self.z0) as u32);
+        let (bx, by, bz) = ((x >> 3) as usize, (y >> 3) as usize, (z >> 3) as usize);
+        let cell = bx + self.nb[0] * (by + self.nb[1] * bz);
+        if cell != self.last.0 {
+            self.switch_brick(cell, [bx, by, bz]);
+        }
+        let bits = &mut self.bricks[self.last.1 as usize - 1].1;
+        bits[(z & 7) as usize] |= 1u64 << ((x & 7) | ((y & 7) << 3));
+    }
+
+    /// Makes `cell` (brick coordinates `b` within the slab) the current
+    /// brick, allocating it on first touch.
+    #[inline(never)]
+    fn switch_brick(&mut self, cell: usize, b: [usize; 3]) {
         // The table index is in range: 0 ≤ x < dims[0] ≤ nb[0]·BRICK, etc.
         let mut slot = self.table[cell];
         if slot == 0 {
             self.bricks.push((
                 [
-                    bx as i32 * BRICK,
-                    by as i32 * BRICK,
-                    bz as i32 * BRICK + self.z0,
+                    b[0] as i32 * BRICK,
+                    b[1] as i32 * BRICK,
+                    b[2] as i32 * BRICK + self.z0,
                 ],
                 [0; 8],
             ));
@@ -104,8 +140,6 @@ impl SlabBricks {
             self.table[cell] = slot;
         }
         self.last = (cell, slot);
-        let bits = &mut self.bricks[slot as usize - 1].1;
-        bits[(z & 7) as usize] |= 1u64 << ((x & 7) | ((y & 7) << 3));
     }
 
     /// Whether voxel `v` is set.

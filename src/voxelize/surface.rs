@@ -85,6 +85,21 @@ impl LineFamily {
         }
     }
 
+    /// The family's compile-time code for [`family_voxel`]: axes 0–2, then
+    /// the diagonals `(1,1)`, `(1,−1)`, `(−1,1)`, `(−1,−1)` as 3–6.
+    const fn code(self) -> u8 {
+        match self {
+            LineFamily::Axis(a) => {
+                if a < 2 {
+                    a as u8
+                } else {
+                    2
+                }
+            }
+            LineFamily::Diagonal(s1, s2) => 3 + 2 * (s1 < 0) as u8 + (s2 < 0) as u8,
+        }
+    }
+
     /// Family coordinates of a lattice point `(i, j, T)` → its voxel.
     #[inline]
     pub fn to_voxel(self, i: i64, j: i64, t: i64) -> Voxel {
@@ -96,6 +111,22 @@ impl LineFamily {
         };
         Voxel::new(x as i32, y as i32, z as i32)
     }
+}
+
+/// [`LineFamily::to_voxel`] for the family with code `F`, resolved at compile
+/// time so the per-voxel path has no branch on the family.
+#[inline(always)]
+fn family_voxel<const F: u8>(i: i64, j: i64, t: i64) -> Voxel {
+    let (x, y, z) = match F {
+        0 => (t, i, j),
+        1 => (j, t, i),
+        2 => (i, j, t),
+        3 => (t, i + t, j + t),
+        4 => (t, i + t, j - t),
+        5 => (t, i - t, j + t),
+        _ => (t, i - t, j - t),
+    };
+    Voxel::new(x as i32, y as i32, z as i32)
 }
 
 /// Calls `emit` with the crossing voxel of every lattice line of `family`
@@ -112,37 +143,107 @@ impl LineFamily {
 /// assert_eq!(got, vec![[0, 0, 0], [0, 1, 0], [1, 0, 0]]);
 /// ```
 pub fn triangle_crossings(tri: &SurfaceTriangle, family: LineFamily, emit: &mut impl FnMut(Voxel)) {
-    let p = [
-        family.to_family(tri[0]),
-        family.to_family(tri[1]),
-        family.to_family(tri[2]),
-    ];
-    // Local lattice origin: the floor of the minimum corner, so that local
-    // coordinates are non-negative and bounded by the triangle's span.
+    match family.code() {
+        0 => family_crossings::<0>(tri, emit),
+        1 => family_crossings::<1>(tri, emit),
+        2 => family_crossings::<2>(tri, emit),
+        3 => family_crossings::<3>(tri, emit),
+        4 => family_crossings::<4>(tri, emit),
+        5 => family_crossings::<5>(tri, emit),
+        _ => family_crossings::<6>(tri, emit),
+    }
+}
+
+/// [`triangle_crossings`] for the family with code `F`.
+#[inline(always)]
+fn family_crossings<const F: u8>(tri: &SurfaceTriangle, emit: &mut impl FnMut(Voxel)) {
+    let family = match F {
+        0..=2 => LineFamily::Axis(F as usize),
+        3 => LineFamily::Diagonal(1, 1),
+        4 => LineFamily::Diagonal(1, -1),
+        5 => LineFamily::Diagonal(-1, 1),
+        _ => LineFamily::Diagonal(-1, -1),
+    };
+    let p = tri.map(|q| family.to_family(q));
+    let (origin, l, span) = localize(&p);
+    let n = normal(&l);
+    crossings_from::<F>(&l, n, origin, span, emit);
+}
+
+/// The thin mode's three axis families of one triangle, sharing the set-up
+/// they have in common: the axis families' maps are cyclic permutations of
+/// the coordinates, so one local origin and one normal serve all three,
+/// permuted.
+#[inline(always)]
+fn thin_crossings(tri: &SurfaceTriangle, emit: &mut impl FnMut(Voxel)) {
+    let (origin, l, span) = localize(tri);
+    let n = normal(&l);
+    let cyc = |v: [i64; 3], k: usize| [v[k % 3], v[(k + 1) % 3], v[(k + 2) % 3]];
+    // Axis(0) maps (x, y, z) to (y, z, x): rotation by one; Axis(1) by two.
+    crossings_from::<0>(&l.map(|q| cyc(q, 1)), cyc(n, 1), cyc(origin, 1), span, emit);
+    crossings_from::<1>(&l.map(|q| cyc(q, 2)), cyc(n, 2), cyc(origin, 2), span, emit);
+    crossings_from::<2>(&l, n, origin, span, emit);
+}
+
+/// Local lattice origin (the floored minimum corner, in lattice units), the
+/// vertices relative to it (non-negative, bounded by the span) and the span
+/// in voxels.
+#[inline(always)]
+fn localize(p: &[[i64; 3]; 3]) -> ([i64; 3], [[i64; 3]; 3], i64) {
     let mut origin = [0i64; 3];
     let mut span = 0i64;
     for a in 0..3 {
         let lo = p[0][a].min(p[1][a]).min(p[2][a]);
         let hi = p[0][a].max(p[1][a]).max(p[2][a]);
-        origin[a] = lo.div_euclid(VOXEL_ONE);
-        span = span.max(hi.div_euclid(VOXEL_ONE) - origin[a] + 1);
+        origin[a] = lo >> VOXEL_FRAC_BITS;
+        span = span.max((hi >> VOXEL_FRAC_BITS) - origin[a] + 1);
     }
-    let local = |q: [i64; 3]| {
-        [
-            q[0] - origin[0] * VOXEL_ONE,
-            q[1] - origin[1] * VOXEL_ONE,
-            q[2] - origin[2] * VOXEL_ONE,
-        ]
-    };
-    let l = [local(p[0]), local(p[1]), local(p[2])];
-    let mut emit_local =
-        |i: i64, j: i64, t: i64| emit(family.to_voxel(i + origin[0], j + origin[1], t + origin[2]));
+    let l = p.map(|q| std::array::from_fn(|a| q[a] - (origin[a] << VOXEL_FRAC_BITS)));
+    (origin, l, span)
+}
+
+/// The plane normal `e1 × e2` of local vertices; in `i64` it cannot
+/// overflow for spans up to [`MAX_TRIANGLE_SPAN`] (products below 2^38).
+/// Wider triangles recompute it in `i128`.
+#[inline(always)]
+fn normal<I: KernelInt>(p: &[[I; 3]; 3]) -> [I; 3] {
+    let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
+    let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+    [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ]
+}
+
+/// Runs the kernel on local family coordinates `l` with normal `n`, emitting
+/// grid voxels of family `F` (offset by the local `origin`).
+#[inline(always)]
+fn crossings_from<const F: u8>(
+    l: &[[i64; 3]; 3],
+    n: [i64; 3],
+    origin: [i64; 3],
+    span: i64,
+    emit: &mut impl FnMut(Voxel),
+) {
+    // The family's voxel map is linear: map the origin once.
+    let base = family_voxel::<F>(origin[0], origin[1], origin[2]);
+    let mut emit_local = |i: i64, j: i64, t: i64| emit(family_voxel::<F>(i, j, t) + base);
     if span <= MAX_TRIANGLE_SPAN {
-        crossings_local::<i64>(&l, &mut emit_local);
+        crossings_local::<i64>(l, n, &mut emit_local);
     } else {
-        let wide = l.map(|q| q.map(i128::from));
-        crossings_local::<i128>(&wide, &mut emit_local);
+        crossings_wide(l, &mut emit_local);
     }
+}
+
+/// The `i128` kernel for triangles wider than [`MAX_TRIANGLE_SPAN`]: rare,
+/// so kept out of line (and behind a `dyn` call) to leave the hot `i64`
+/// path small enough for the compiler to inline the voxel sink into it.
+#[cold]
+#[inline(never)]
+fn crossings_wide(l: &[[i64; 3]; 3], emit: &mut dyn FnMut(i64, i64, i64)) {
+    let wide = l.map(|q| q.map(i128::from));
+    crossings_local::<i128>(&wide, normal(&wide), &mut |i, j, t| emit(i, j, t));
 }
 
 /// The integer operations the crossing kernel needs; implemented for `i64`
@@ -156,17 +257,25 @@ trait KernelInt:
     + std::ops::Neg<Output = Self>
     + std::ops::AddAssign
     + std::ops::SubAssign
+    + std::ops::Shr<u32, Output = Self>
 {
     const ZERO: Self;
     const ONE: Self;
     fn from_i64(v: i64) -> Self;
     fn to_i64(self) -> i64;
-    fn div_floor(self, d: Self) -> Self;
-    fn div_ceil_(self, d: Self) -> Self;
+    /// `floor(self / d)` for `d > 0`.
+    fn div_floor_pos(self, d: Self) -> Self;
+    /// What [`KernelInt::div_rem_floor`] needs to divide by `d` quickly.
+    fn reciprocal(d: Self) -> f64;
+    /// `(floor(self / d), self mod d)` for `d > 0`, given `recip =
+    /// reciprocal(d)`.
+    fn div_rem_floor(self, d: Self, recip: f64) -> (Self, Self);
+    /// `if c { a } else { b }`, meant to compile to a conditional move.
+    fn select(c: bool, a: Self, b: Self) -> Self;
 }
 
 macro_rules! kernel_int {
-    ($t:ty) => {
+    ($t:ty, $fast:expr, $recip:expr) => {
         impl KernelInt for $t {
             const ZERO: Self = 0;
             const ONE: Self = 1;
@@ -179,40 +288,86 @@ macro_rules! kernel_int {
                 self as i64
             }
             #[inline(always)]
-            fn div_floor(self, d: Self) -> Self {
-                let q = self / d;
-                if (self % d != 0) && ((self < 0) != (d < 0)) {
-                    q - 1
-                } else {
-                    q
-                }
+            fn div_floor_pos(self, d: Self) -> Self {
+                $fast(self, d)
             }
             #[inline(always)]
-            fn div_ceil_(self, d: Self) -> Self {
-                let q = self / d;
-                if (self % d != 0) && ((self < 0) == (d < 0)) {
-                    q + 1
-                } else {
-                    q
-                }
+            fn reciprocal(d: Self) -> f64 {
+                1.0 / d as f64
+            }
+            #[inline(always)]
+            fn div_rem_floor(self, d: Self, recip: f64) -> (Self, Self) {
+                $recip(self, d, recip)
+            }
+            #[inline(always)]
+            fn select(c: bool, a: Self, b: Self) -> Self {
+                if c { a } else { b }
             }
         }
     };
 }
-kernel_int!(i64);
-kernel_int!(i128);
+kernel_int!(i64, div_floor_pos_i64, div_rem_recip_i64);
+kernel_int!(
+    i128,
+    |n: i128, d: i128| n.div_euclid(d),
+    |n: i128, d: i128, _| { (n.div_euclid(d), n.rem_euclid(d)) }
+);
+
+/// `floor(n / d)` for `d > 0`. Where both fit the 53-bit mantissa, the
+/// quotient is taken in `f64` and corrected to the exact floor: a 64-bit
+/// `idiv` costs 40–90 cycles on the Skylake-class cores this was tuned on,
+/// and the kernel divides about a dozen times per triangle and family.
+/// Why one correction suffices: `n` and `d` are exact in `f64`, so the
+/// correctly rounded quotient `f` lies between `floor(n/d)` and the next
+/// integer when `n/d` is not an integer (and is exact when it is); hence
+/// `trunc(f)` is `floor(n/d)` or `floor(n/d) + 1`, the latter exactly when
+/// `n − trunc(f)·d < 0`. (`trunc` is one instruction on baseline x86-64;
+/// `floor` is a library call.)
+#[inline(always)]
+fn div_floor_pos_i64(n: i64, d: i64) -> i64 {
+    debug_assert!(d > 0);
+    const EXACT: u64 = 1 << 53;
+    if n.unsigned_abs() < EXACT && (d as u64) < EXACT {
+        let q = (n as f64 / d as f64) as i64;
+        if n - q * d < 0 { q - 1 } else { q }
+    } else {
+        n.div_euclid(d)
+    }
+}
+
+/// `(floor(n / d), n mod d)` for `d > 0` by a multiplication with `recip =
+/// 1/d` (rounded) where `|n|` and `d` are below 2^50, corrected exactly:
+/// the product carries two roundings of relative size 2^-53 each, so for a
+/// quotient below 2^50 in magnitude it is within 1/4 of `n/d`, and its
+/// truncation within one of the floor; one step either way restores it.
+/// Larger operands divide exactly in integers.
+#[inline(always)]
+fn div_rem_recip_i64(n: i64, d: i64, recip: f64) -> (i64, i64) {
+    debug_assert!(d > 0);
+    const SAFE: u64 = 1 << 50;
+    if n.unsigned_abs() < SAFE && (d as u64) < SAFE {
+        let mut q = (n as f64 * recip) as i64;
+        let mut r = n - q * d;
+        if r < 0 {
+            q -= 1;
+            r += d;
+        } else if r >= d {
+            q += 1;
+            r -= d;
+        }
+        (q, r)
+    } else {
+        (n.div_euclid(d), n.rem_euclid(d))
+    }
+}
 
 /// The kernel on a triangle in local family coordinates (fixed point, all
 /// coordinates in `0..=span·ONE`): emits `(i, j, T)` in local lattice units.
 #[inline(always)]
-fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], emit: &mut impl FnMut(i64, i64, i64)) {
+fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], n: [I; 3], emit: &mut impl FnMut(i64, i64, i64)) {
     let s = I::from_i64(VOXEL_ONE);
-    let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
-    let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
     // Plane normal (a, b, c); c is twice the signed projected area.
-    let mut a = e1[1] * e2[2] - e1[2] * e2[1];
-    let mut b = e1[2] * e2[0] - e1[0] * e2[2];
-    let mut c = e1[0] * e2[1] - e1[1] * e2[0];
+    let [mut a, mut b, mut c] = n;
     if c == I::ZERO {
         return;
     }
@@ -245,69 +400,82 @@ fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], emit: &mut impl FnMut(i64, i64
     let (u0, v0, t0) = (q[0][0], q[0][1], q[0][2]);
     let two = I::ONE + I::ONE;
     let den = two * c * s;
+    let recip = I::reciprocal(den);
     let num_at = |i: I, j: I| two * c * t0 - two * (a * (i * s - u0) + b * (j * s - v0)) + c * s;
     // Stepping i by one changes num by −2·a·S: split into quotient and
     // remainder once so the row loop only adds.
     let di = -two * a * s;
-    let qi = di.div_floor(den);
+    let qi = di.div_floor_pos(den);
     let ri = di - qi * den;
 
     let vmin = q[0][1].min(q[1][1]).min(q[2][1]);
     let vmax = q[0][1].max(q[1][1]).max(q[2][1]);
-    let j_lo = vmin.div_ceil_(s);
-    let j_hi = vmax.div_floor(s);
+    // S = 2^VOXEL_FRAC_BITS: floor and ceil divisions by S are shifts.
+    let j_lo = -((-vmin) >> VOXEL_FRAC_BITS);
+    let j_hi = vmax >> VOXEL_FRAC_BITS;
     // Row bounds, stepped: with N_k(j) = beta_k·j + gamma_k (≥ 0 inside) and
     // d_k = |alpha_k|, an edge with alpha_k > 0 bounds i from below by
     // ceil(−N_k/alpha_k) = −floor(N_k/d_k), one with alpha_k < 0 from above
-    // by floor(N_k/d_k). floor(N_k/d_k) and its remainder are carried from
-    // row to row (N_k grows by beta_k), so a row costs additions, not three
-    // divisions. alpha_k = 0: the row is empty iff N_k(j) < 0.
-    let mut d = [I::ZERO; 3];
-    let mut fq = [I::ZERO; 3];
-    let mut fr = [I::ZERO; 3];
-    let mut sq = [I::ZERO; 3];
-    let mut sr = [I::ZERO; 3];
+    // by floor(N_k/d_k); an edge with alpha_k = 0 empties the row where
+    // N_k(j) < 0. A counter-clockwise triangle has one or two edges of each
+    // bounding kind; they are sorted into two lower and two upper slots
+    // (repeating an edge when it is alone) and one flat slot (a dummy that
+    // never empties a row when no edge is flat), so the row loop runs the
+    // same branch-free steps for every triangle. floor(N_k/d_k) and its
+    // remainder are carried from row to row (N_k grows by beta_k): a row
+    // costs additions and selects, not divisions.
+    let mut lower: [Carry<I>; 2] = [Carry::IDLE; 2];
+    let mut upper: [Carry<I>; 2] = [Carry::IDLE; 2];
+    let mut flat_n = I::ONE; // N_k(j) of the flat edge; ≥ 0 for the dummy
+    let mut flat_step = I::ZERO;
+    let (mut nl, mut nu) = (0, 0);
     for k in 0..3 {
-        d[k] = if alpha[k] < I::ZERO {
-            -alpha[k]
+        let n = beta[k] * j_lo + gamma[k];
+        if alpha[k] == I::ZERO {
+            flat_n = n;
+            flat_step = beta[k];
         } else {
-            alpha[k]
-        };
-        if d[k] != I::ZERO {
-            let n = beta[k] * j_lo + gamma[k];
-            fq[k] = n.div_floor(d[k]);
-            fr[k] = n - fq[k] * d[k];
-            sq[k] = beta[k].div_floor(d[k]);
-            sr[k] = beta[k] - sq[k] * d[k];
+            let carry = Carry::new(
+                n,
+                beta[k],
+                if alpha[k] < I::ZERO {
+                    -alpha[k]
+                } else {
+                    alpha[k]
+                },
+            );
+            if alpha[k] > I::ZERO {
+                lower[nl] = carry;
+                nl += 1;
+            } else {
+                upper[nu] = carry;
+                nu += 1;
+            }
         }
     }
+    if nl == 1 {
+        lower[1] = lower[0];
+    }
+    if nu == 1 {
+        upper[1] = upper[0];
+    }
+    // With c > 0 both kinds occur (nl, nu ≥ 1): two parallel edges cannot
+    // close a triangle of positive area.
+    debug_assert!(nl >= 1 && nu >= 1);
     let mut j = j_lo;
     while j <= j_hi {
         // Lattice i in the closed triangle on row j.
-        let mut lo = I::from_i64(i64::MIN);
-        let mut hi = I::from_i64(i64::MAX);
-        let mut empty = false;
-        for k in 0..3 {
-            if alpha[k] > I::ZERO {
-                lo = lo.max(-fq[k]);
-            } else if alpha[k] < I::ZERO {
-                hi = hi.min(fq[k]);
-            } else if beta[k] * j + gamma[k] < I::ZERO {
-                empty = true;
-            }
-            if d[k] != I::ZERO {
-                fq[k] += sq[k];
-                fr[k] += sr[k];
-                if fr[k] >= d[k] {
-                    fr[k] -= d[k];
-                    fq[k] += I::ONE;
-                }
-            }
-        }
-        if !empty && lo <= hi {
+        let lo = (-lower[0].q).max(-lower[1].q);
+        let hi = upper[0].q.min(upper[1].q);
+        let open = flat_n >= I::ZERO;
+        lower[0].step();
+        lower[1].step();
+        upper[0].step();
+        upper[1].step();
+        flat_n += flat_step;
+        if open && lo <= hi {
             let num = num_at(lo, j);
-            let mut t = num.div_floor(den);
-            let mut r = num - t * den;
+            let (mut t, mut r) = num.div_rem_floor(den, recip);
             let (jj, mut i, end) = (j.to_i64(), lo.to_i64(), hi.to_i64());
             loop {
                 emit(i, jj, t.to_i64());
@@ -317,13 +485,57 @@ fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], emit: &mut impl FnMut(i64, i64
                 i += 1;
                 t += qi;
                 r += ri;
-                if r >= den {
-                    r -= den;
-                    t += I::ONE;
-                }
+                let over = r >= den;
+                r -= I::select(over, den, I::ZERO);
+                t += I::select(over, I::ONE, I::ZERO);
             }
         }
         j += I::ONE;
+    }
+}
+
+/// `floor(n / d)` carried along `n += step` with remainder, for `d > 0`.
+#[derive(Clone, Copy)]
+struct Carry<I> {
+    q: I,
+    r: I,
+    sq: I,
+    sr: I,
+    d: I,
+}
+
+impl<I: KernelInt> Carry<I> {
+    /// A slot that never binds a row (`q = 0` stays, bounds come from the
+    /// repeated real edge).
+    const IDLE: Carry<I> = Carry {
+        q: I::ZERO,
+        r: I::ZERO,
+        sq: I::ZERO,
+        sr: I::ZERO,
+        d: I::ONE,
+    };
+
+    #[inline(always)]
+    fn new(n: I, step: I, d: I) -> Self {
+        let q = n.div_floor_pos(d);
+        let sq = step.div_floor_pos(d);
+        Carry {
+            q,
+            r: n - q * d,
+            sq,
+            sr: step - sq * d,
+            d,
+        }
+    }
+
+    /// Advance to `n + step` (branch-free).
+    #[inline(always)]
+    fn step(&mut self) {
+        self.q += self.sq;
+        self.r += self.sr;
+        let over = self.r >= self.d;
+        self.r -= I::select(over, self.d, I::ZERO);
+        self.q += I::select(over, I::ONE, I::ZERO);
     }
 }
 
@@ -361,7 +573,6 @@ pub fn voxelize_surface(
 ) -> Vec<([i32; 3], BrickBits)> {
     use rayon::prelude::*;
     let plan = SlabPlan::new(triangles, dims);
-    let families = mode.families();
     let slabs: Vec<Vec<([i32; 3], BrickBits)>> = plan
         .slabs
         .par_iter()
@@ -369,14 +580,51 @@ pub fn voxelize_surface(
             let mut bricks = SlabBricks::new(dims, slab.z0, slab.z1);
             for &t in &slab.triangles {
                 let tri = &triangles[t as usize];
-                for &family in families {
-                    triangle_crossings(tri, family, &mut |v| bricks.set(v));
+                // Most triangles lie well inside the grid and the slab:
+                // those skip the clamping and the slab test per voxel.
+                let (lo, hi) = crossing_bounds(tri);
+                if bricks.holds(lo, hi) {
+                    all_families(mode, tri, &mut |v| bricks.set_inside(v));
+                } else {
+                    all_families(mode, tri, &mut |v| bricks.set(v));
                 }
             }
             bricks.into_bricks()
         })
         .collect();
     slabs.into_iter().flatten().collect()
+}
+
+/// Every crossing of `tri` in the families of `mode`.
+#[inline(always)]
+fn all_families(mode: SurfaceMode, tri: &SurfaceTriangle, emit: &mut impl FnMut(Voxel)) {
+    match mode {
+        SurfaceMode::Thin => thin_crossings(tri, emit),
+        SurfaceMode::Thick => {
+            family_crossings::<3>(tri, emit);
+            family_crossings::<4>(tri, emit);
+            family_crossings::<5>(tri, emit);
+            family_crossings::<6>(tri, emit);
+        }
+    }
+}
+
+/// A voxel box holding every crossing voxel of `tri` in any family: a
+/// crossing voxel is within 1/2 of a point of the triangle on every axis
+/// (the lattice coordinates exactly, the rounded one by at most 1/2, and a
+/// diagonal family's sheared coordinates by at most 1/2 as well), so one
+/// voxel of margin around the floored bounding box is enough.
+#[inline]
+fn crossing_bounds(tri: &SurfaceTriangle) -> ([i32; 3], [i32; 3]) {
+    let mut lo = [0i32; 3];
+    let mut hi = [0i32; 3];
+    for a in 0..3 {
+        let mn = tri[0][a].min(tri[1][a]).min(tri[2][a]);
+        let mx = tri[0][a].max(tri[1][a]).max(tri[2][a]);
+        lo[a] = ((mn >> VOXEL_FRAC_BITS) - 1).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        hi[a] = ((mx >> VOXEL_FRAC_BITS) + 1).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+    }
+    (lo, hi)
 }
 
 /// A z-slab of the grid and the triangles that can reach it.
@@ -538,6 +786,79 @@ mod tests {
                 reference(tri, *family),
                 "{tri:?} {family:?}"
             );
+        }
+    }
+
+    #[test]
+    fn f64_floor_division_is_exact() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        for _ in 0..200_000 {
+            let bits = rng.random_range(1..63);
+            let dbits = rng.random_range(0..54);
+            let d = rng.random_range(1..=(1i64 << dbits));
+            let n = rng.random_range(-(1i64 << bits)..(1i64 << bits));
+            // Multiples of d and their neighbours are where rounding bites.
+            let m = (n / d).saturating_mul(d);
+            for n in [n, m, m.saturating_add(1), m.saturating_sub(1)] {
+                assert_eq!(div_floor_pos_i64(n, d), n.div_euclid(d), "{n} / {d}");
+            }
+        }
+        let big = (1i64 << 53) - 1;
+        for (n, d) in [
+            (big, 3),
+            (-big, 3),
+            (big - 1, big),
+            (-big, big),
+            (i64::MIN, 7),
+            (i64::MAX, 1),
+        ] {
+            for n in [n.saturating_sub(1), n, n.saturating_add(1)] {
+                assert_eq!(div_floor_pos_i64(n, d), n.div_euclid(d), "{n} / {d}");
+            }
+        }
+    }
+
+    #[test]
+    fn reciprocal_division_is_exact() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(10);
+        for _ in 0..200_000 {
+            let bits = rng.random_range(1..63);
+            let dbits = rng.random_range(0..52);
+            let d = rng.random_range(1..=(1i64 << dbits));
+            let n = rng.random_range(-(1i64 << bits)..(1i64 << bits));
+            let recip = <i64 as KernelInt>::reciprocal(d);
+            let m = (n / d).saturating_mul(d);
+            for n in [n, m, m.saturating_add(1), m.saturating_sub(1)] {
+                let want = (n.div_euclid(d), n.rem_euclid(d));
+                assert_eq!(div_rem_recip_i64(n, d, recip), want, "{n} / {d}");
+            }
+        }
+    }
+
+    #[test]
+    fn shared_thin_set_up_equals_the_three_families() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for case in 0..3000 {
+            let extent = [2, 9, 60][case % 3] * VOXEL_ONE;
+            let off = rng.random_range(-5000..5000) * VOXEL_ONE;
+            let mut tri: SurfaceTriangle = std::array::from_fn(|_| {
+                std::array::from_fn(|_| {
+                    off + rng.random_range(-extent..=extent) / (1 + case as i64 % 4)
+                })
+            });
+            if case % 100 == 0 {
+                // A sliver wider than the i64 kernel takes: the i128 path.
+                tri[1][case / 100 % 3] += MAX_TRIANGLE_SPAN * VOXEL_ONE;
+            }
+            let mut want = Vec::new();
+            for f in THIN_FAMILIES {
+                want.extend(kernel(&tri, f));
+            }
+            want.sort();
+            let mut got = Vec::new();
+            thin_crossings(&tri, &mut |v| got.push(v.to_array()));
+            got.sort();
+            assert_eq!(got, want, "{tri:?}");
         }
     }
 
