@@ -16,12 +16,18 @@
 //! 4. run the **mode** ([`VoxelizeMode`]) into a sparse [`BrickGrid`].
 //!
 //! # Polylines
-//! Every polyline segment `[a, b]` is voxelized as the exact conservative set
-//! of the degenerate triangle `[a, b, b]`: the voxels whose closed cube the
-//! segment touches (26-connected, a superset of the 6-connected voxels a
-//! tripod line would give). This is used in every mode, including *thin*;
-//! the thin route will switch to the 6-connected tripod line of the line
-//! engine once that lands in the voxelizer, which only removes voxels.
+//! Every polyline segment `[a, b]` is voxelized by the line engine with the
+//! connectivity of the mode, at the same 1/256-voxel endpoints:
+//! * *thin* and *solid*: the 26-connected line ([`Line26`]), the thinnest
+//!   connected set (`d26 + 1` voxels for lattice endpoints);
+//! * *thick*: the 6-connected tripod line ([`Tripod6`]), whose voxels cover
+//!   the segment (no 26-gap between consecutive voxels);
+//! * *conservative*: every voxel whose closed cube the segment touches (the
+//!   exact conservative set of the degenerate triangle `[a, b, b]`).
+//!
+//! All three only list voxels the segment touches, so every mode stays a
+//! subset of the conservative set. Voxels on the grid's max faces are
+//! clamped into the grid, as for triangles.
 //!
 //! # Solid and non-watertight input
 //! *Solid* is the thin surface ∪ the interior by majority vote of exact
@@ -45,6 +51,7 @@ use rayon::prelude::*;
 use crate::error::{Result, VoxkitError};
 use crate::fixed::FRAC_BITS;
 use crate::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
+use crate::line::{Line26, Segment, Tripod6};
 use crate::mesh::{Mesh, fit_frame, fitted_voxel};
 use crate::voxelize::conservative::{FixedTriangle, conservative_voxels};
 use crate::voxelize::solid::solid_voxels_voting;
@@ -268,6 +275,51 @@ pub fn segment_to_reference(s: &SurfaceSegment) -> FixedTriangle {
     to_reference(&t)
 }
 
+/// The voxels of polyline `segments` for `mode` (see the module docs).
+///
+/// # Errors
+/// None for segments quantized in a fitted frame (their coordinates are far
+/// inside the line engine's ±2^30 range); the error is kept for other callers.
+pub fn polyline_voxels(
+    segments: &[SurfaceSegment],
+    mode: VoxelizeMode,
+    dims: crate::grid::Dims,
+) -> Result<BrickGrid> {
+    if mode == VoxelizeMode::Conservative {
+        return Ok(conservative_grid(
+            segments.par_iter().map(segment_to_reference),
+            dims,
+        ));
+    }
+    let hi = Voxel::new(dims[0] as i32 - 1, dims[1] as i32 - 1, dims[2] as i32 - 1);
+    let parts: Vec<Result<BrickGrid>> = segments
+        .par_chunks(256)
+        .map(|chunk| {
+            let mut g = BrickGrid::new();
+            for s in chunk {
+                let seg = Segment::from_fixed(
+                    s[0].map(|c| c << FIXED_SHIFT),
+                    s[1].map(|c| c << FIXED_SHIFT),
+                )?;
+                let mut put = |v: Voxel| {
+                    g.insert(v.clamp(Voxel::ZERO, hi));
+                };
+                if mode == VoxelizeMode::Thick {
+                    Tripod6::new(&seg).for_each(&mut put);
+                } else {
+                    Line26::new(&seg).for_each(&mut put);
+                }
+            }
+            Ok(g)
+        })
+        .collect();
+    let mut out = BrickGrid::new();
+    for p in parts {
+        out.union_with(&p?);
+    }
+    Ok(out)
+}
+
 /// Sum of the triangles' areas in voxels² (f64; for estimates only).
 fn surface_area(tris: &[SurfaceTriangle]) -> f64 {
     let s2 = (VOXEL_ONE * VOXEL_ONE) as f64;
@@ -416,8 +468,7 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
     report("polylines");
     let t1 = Instant::now();
     if !segments.is_empty() {
-        let lines = conservative_grid(segments.par_iter().map(segment_to_reference), frame.dims);
-        grid.union_with(&lines);
+        grid.union_with(&polyline_voxels(segments, opts.mode, frame.dims)?);
     }
     let polyline_ms = ms(t1.elapsed());
     report("done");

@@ -15,6 +15,7 @@ use rand_chacha::ChaCha8Rng;
 use voxkit::VoxkitError;
 use voxkit::grid::{BrickGrid, MemoryLimit};
 use voxkit::io::{read_voxels, write_voxels};
+use voxkit::line::{Line26, Segment, Tripod6};
 use voxkit::mesh::Mesh;
 use voxkit::voxelize::conservative::triangle_meets_voxel;
 use voxkit::voxelize::measure::{is_closed, measure_external, measure_voxelization};
@@ -277,17 +278,32 @@ fn conservative_equals_brute_force_scan_and_contains_thin_and_thick() {
         for mode in [VoxelizeMode::Thin, VoxelizeMode::Thick] {
             let s = run(&mesh, 9, mode, snap);
             assert!(subset(&s.grid, &cons.grid), "case {case} {mode:?}");
-            // Polyline voxels are the segments' conservative sets in every mode.
-            let lines: Vec<_> = s.mesh.segments.iter().map(segment_to_reference).collect();
-            for v in cons
-                .grid
-                .iter()
-                .filter(|&v| lines.iter().any(|t| triangle_meets_voxel(t, v).unwrap()))
-            {
+            // Polylines: thin draws the 26-connected line, thick the tripod
+            // 6-line, both through the same 1/256-voxel endpoints.
+            for seg in &s.mesh.segments {
+                let shift = |p: [i64; 3]| p.map(|c| c << 12);
+                let line = Segment::from_fixed(shift(seg[0]), shift(seg[1])).unwrap();
+                let voxels: Vec<IVec3> = if mode == VoxelizeMode::Thin {
+                    Line26::new(&line).collect()
+                } else {
+                    Tripod6::new(&line).collect()
+                };
+                let conn = if mode == VoxelizeMode::Thin {
+                    voxkit::Connectivity::TwentySix
+                } else {
+                    voxkit::Connectivity::Six
+                };
                 assert!(
-                    s.grid.contains(v),
-                    "case {case} {mode:?}: polyline voxel {v} missing"
+                    voxkit::topology::is_connected_path(&voxels, conn),
+                    "case {case} {mode:?}"
                 );
+                for v in voxels {
+                    let v = v.clamp(IVec3::ZERO, IVec3::splat(8));
+                    assert!(
+                        s.grid.contains(v),
+                        "case {case} {mode:?}: line voxel {v} missing"
+                    );
+                }
             }
         }
     }
