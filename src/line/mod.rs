@@ -34,6 +34,9 @@ pub mod segment;
 pub mod tripod6;
 pub mod walk;
 
+#[cfg(test)]
+mod fast_tests;
+
 pub use adaptive::{AdaptiveRay, OCCUPIED, PROXIMITY, RayMode, adaptive_walk, set_proximity_flags};
 pub use clip::GridBox;
 pub use line18::Line18;
