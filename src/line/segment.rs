@@ -38,9 +38,12 @@ use crate::grid::Voxel;
 /// Largest supported fixed-point coordinate magnitude (`2^30` voxels).
 pub const MAX_FIXED: i64 = 1 << (30 + fixed::FRAC_BITS);
 
-/// Direction components (fixed point) up to this bound run on `i64` decision
-/// variables; longer segments (more than 2^20 voxels along an axis) use
-/// `i128`. Decision variables stay within `3·S·max(D) ≤ 3·2^60 < 2^62`.
+/// Direction components (fixed point) up to this bound (2^20 voxels) run on
+/// `i64` decision variables and an `i64`, division-free set-up; longer
+/// segments use `i128` throughout. On the line's voxels the decision
+/// variables stay within `S·max(D) + S·max(D)/2 + 1 ≤ 1.5·2^60 + 1`, and every
+/// set-up product within `2.5·2^60` (see `Frame::tripod_e64`,
+/// `Frame::centre_first`, `Frame::centre_last`): below `2^63`.
 pub const NARROW_MAX_DELTA: i64 = 1 << 40;
 
 /// A validated 3D segment in grid space, endpoints in fixed point

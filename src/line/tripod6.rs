@@ -67,6 +67,34 @@ impl<T: DecisionInt> TripodState<T> {
         (u.low_bits() & 1) | (v.low_bits() & 2)
     }
 
+    /// [`TripodState::step`] as the decision tree (same decisions). Used
+    /// where the select form runs out of registers: the iterator's `fold`
+    /// also carries the world voxel and the caller's accumulator, and there
+    /// the branch-free form compiled to a loop with spills several times the
+    /// size of this one.
+    #[inline(always)]
+    pub(crate) fn step_tree(&mut self) -> usize {
+        if self.e[0] < T::ZERO {
+            if self.e[1] < T::ZERO {
+                self.e[0] += self.du;
+                self.e[1] += self.dv;
+                0
+            } else {
+                self.e[1] -= self.dm;
+                self.e[2] += self.du;
+                2
+            }
+        } else if self.e[2] < T::ZERO {
+            self.e[1] -= self.dm;
+            self.e[2] += self.du;
+            2
+        } else {
+            self.e[0] -= self.dm;
+            self.e[2] -= self.dv;
+            1
+        }
+    }
+
     /// Whether the next step is along the major axis.
     #[inline]
     pub(crate) fn next_is_major(&self) -> bool {
@@ -204,13 +232,13 @@ impl Iterator for Tripod6 {
         match self.state {
             AnyTripod::Narrow(mut s) => {
                 for _ in 0..n {
-                    cur += steps[s.step()];
+                    cur += steps[s.step_tree()];
                     acc = g(acc, cur);
                 }
             }
             AnyTripod::Wide(mut s) => {
                 for _ in 0..n {
-                    cur += steps[s.step()];
+                    cur += steps[s.step_tree()];
                     acc = g(acc, cur);
                 }
             }
@@ -244,8 +272,12 @@ mod tests {
             assert!(!f.wide);
             let mut a = TripodState::<i64>::at(&f, [0; 3]);
             let mut b = TripodState::<i128>::at(&f, [0; 3]);
+            let mut t = a;
             for _ in 0..f.tripod_steps() {
-                assert_eq!(a.step(), b.step());
+                let k = a.step();
+                assert_eq!(k, b.step());
+                assert_eq!(k, t.step_tree(), "select and tree forms differ");
+                assert_eq!(a.e, t.e);
             }
             if f.end[0] >= 1 {
                 let mut a = Mid26State::<i64>::at(&f, [0; 3]);
