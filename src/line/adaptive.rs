@@ -144,6 +144,12 @@ impl Core {
         if self.c == self.f.end {
             return None;
         }
+        Some(self.step_on(flagged))
+    }
+
+    /// [`Core::step`] before the end voxel (the caller knows it is not there).
+    #[inline]
+    fn step_on(&mut self, flagged: bool) -> usize {
         if self.mode == RayMode::TwentySix && flagged {
             self.mode = RayMode::Six;
             self.tri = AnyTripod::at(&self.f, self.c);
@@ -168,7 +174,7 @@ impl Core {
         for (k, ck) in self.c.iter_mut().enumerate() {
             *ck += (mask >> k & 1) as i64;
         }
-        Some(mask)
+        mask
     }
 }
 
@@ -229,10 +235,13 @@ impl<F: FnMut(Voxel) -> bool> std::iter::FusedIterator for AdaptiveRay<F> {}
 /// cell until it returns `Break` (typically at the first occupied cell).
 ///
 /// The ray enters the grid at the tripod line's first in-grid voxel (clipped
-/// once, O(1)) in 6 mode and leaves when it steps out of the grid box (the
-/// path is monotone, so one comparison per axis and step). Outside the grid
-/// nothing is flagged; starting at the tripod entry keeps the first-hit
-/// guarantee at the grid boundary.
+/// once, O(1)) in 6 mode and leaves when its tripod index (sum of local
+/// coordinates) passes the last in-grid tripod voxel: the ray is a
+/// subsequence of the tripod path, whose in-grid voxels are one run, so one
+/// comparison per step replaces bounds checks, and cells are read by a linear
+/// index moved by neighbour offsets. Outside the grid nothing is flagged;
+/// starting at the tripod entry keeps the first-hit guarantee at the grid
+/// boundary.
 ///
 /// ```
 /// use std::ops::ControlFlow;
@@ -255,19 +264,26 @@ pub fn adaptive_walk(
     let shape = GridShape::of(grid);
     let f = Frame::new(seg);
     let gbox = GridBox::from_dims(shape.dims);
-    let Some((c, _)) = tripod_range(&f, &gbox) else {
+    let Some((c, n)) = tripod_range(&f, &gbox) else {
         return WalkOutcome::Completed { visited: 0 };
     };
-    let (_, h) = gbox.local(&f);
+    // In-grid tripod indices: ts..=te (te ≤ the end voxel's index).
+    let ts: i64 = c.iter().sum();
+    let te = ts + n as i64 - 1;
     let off = Offsets::new(&shape.table, &f);
     let cells = grid.as_slice();
     let mut core = Core::at_tripod(seg, c);
     let mut idx = shape.index(f.voxel_world(c));
+    let mut t = ts;
     let mut visited = 0u64;
     loop {
-        // SAFETY-free: checked indexing here; the adaptive ray is not the
-        // pointer-offset hot path (its flags are read anyway).
-        let cell = &cells[idx];
+        debug_assert!(idx < cells.len() && t >= ts && t <= te);
+        // SAFETY: `idx` is the linear index of a voxel of the tripod path
+        // with tripod index `t` in `ts..=te`, the path's in-grid run
+        // (`tripod_range`), so `idx < cells.len()`: the loop leaves as soon as
+        // `t` passes `te`. Tested against the checked ray iterator in
+        // `adaptive_ray_properties` (debug builds assert the bound).
+        let cell = unsafe { cells.get_unchecked(idx) };
         visited += 1;
         if visit(cell).is_break() {
             return WalkOutcome::Stopped {
@@ -275,13 +291,92 @@ pub fn adaptive_walk(
                 voxel: grid.voxel_of_index(idx),
             };
         }
-        let Some(mask) = core.step(cell & PROXIMITY != 0) else {
+        if t >= te {
             break;
-        };
-        if (0..3).any(|k| core.c[k] > h[k]) {
+        }
+        let mask = core.step_on(cell & PROXIMITY != 0);
+        t += i64::from(mask.count_ones());
+        if t > te {
             break;
         }
         idx = idx.wrapping_add_signed(off.mask[mask]);
     }
     WalkOutcome::Completed { visited }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::MemoryLimit;
+    use rand::{Rng, SeedableRng};
+
+    /// The walk as first written: bounds-checked reads, per-axis box test
+    /// and end test at every step.
+    fn checked_reference(grid: &DenseGrid<u8>, seg: &Segment) -> Vec<usize> {
+        let shape = GridShape::of(grid);
+        let f = Frame::new(seg);
+        let gbox = GridBox::from_dims(shape.dims);
+        let Some((c, _)) = tripod_range(&f, &gbox) else {
+            return Vec::new();
+        };
+        let (_, h) = gbox.local(&f);
+        let off = Offsets::new(&shape.table, &f);
+        let cells = grid.as_slice();
+        let mut core = Core::at_tripod(seg, c);
+        let mut idx = shape.index(f.voxel_world(c));
+        let mut out = Vec::new();
+        loop {
+            out.push(idx);
+            let Some(mask) = core.step(cells[idx] & PROXIMITY != 0) else {
+                break;
+            };
+            if (0..3).any(|k| core.c[k] > h[k]) {
+                break;
+            }
+            idx = idx.wrapping_add_signed(off.mask[mask]);
+        }
+        out
+    }
+
+    /// The pointer-offset walk (one tripod-index test per step, unchecked
+    /// reads) visits exactly the cells of the checked walk, in order, on
+    /// segments entering, leaving, crossing and missing the grid.
+    #[test]
+    fn walk_matches_checked_reference() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4242);
+        let dims = [13, 9, 11];
+        for _ in 0..20 {
+            let mut g = DenseGrid::new(dims, 0u8, MemoryLimit::DEFAULT).unwrap();
+            for c in g.as_mut_slice().iter_mut() {
+                if rng.random_bool(0.01) {
+                    *c = OCCUPIED;
+                }
+            }
+            set_proximity_flags(&mut g, 1);
+            for _ in 0..150 {
+                let p = |rng: &mut rand_chacha::ChaCha8Rng| -> [f64; 3] {
+                    std::array::from_fn(|k| {
+                        let x = rng.random_range(-4.0..dims[k] as f64 + 4.0);
+                        if rng.random_bool(0.2) { x.round() } else { x }
+                    })
+                };
+                let seg = Segment::from_f64(p(&mut rng), p(&mut rng)).unwrap();
+                let want = checked_reference(&g, &seg);
+                let mut got = Vec::new();
+                let cells = g.as_slice().as_ptr();
+                let out = adaptive_walk(&g, &seg, |c| {
+                    // SAFETY: `c` is a reference into `g`'s cells.
+                    got.push(unsafe { (c as *const u8).offset_from(cells) } as usize);
+                    ControlFlow::Continue(())
+                });
+                assert_eq!(got, want, "{seg:?}");
+                assert_eq!(
+                    out,
+                    WalkOutcome::Completed {
+                        visited: want.len() as u64
+                    }
+                );
+            }
+        }
+    }
 }

@@ -15,22 +15,206 @@
 //! 18-connected; first voxel `V0`, last `V1`; every voxel touched by the
 //! closed segment; a subsequence of the tripod path.
 
+use std::ops::ControlFlow;
+
 use glam::IVec3;
 
-use super::line26::{Cursor26, Plan26};
-use super::segment::{Frame, Segment};
+use crate::fixed::HALF;
 
-/// Local axis crossed last when leaving local voxel `c` (exact).
-pub(crate) fn last_crossed(f: &Frame, c: [i64; 3]) -> usize {
-    let e = f.tripod_e(c);
-    if e[0] < 0 {
+use super::line26::{Mid26State, Plan26};
+use super::segment::{DecisionInt, Frame, Segment};
+
+/// Local axis crossed last when leaving a voxel with biased tripod variables
+/// `e = [e_mu, e_mv, e_vu]`.
+#[inline(always)]
+fn last_of<T: DecisionInt>(e: [T; 3]) -> usize {
+    if e[0] < T::ZERO {
         // m before u: the last is u or v.
-        if e[2] < 0 { 1 } else { 2 }
-    } else if e[1] < 0 {
+        if e[2] < T::ZERO { 1 } else { 2 }
+    } else if e[1] < T::ZERO {
         // u before m, m before v.
         2
     } else {
         0
+    }
+}
+
+/// Local axis crossed last when leaving local voxel `c` of the tripod path
+/// (exact).
+pub(crate) fn last_crossed(f: &Frame, c: [i64; 3]) -> usize {
+    if f.wide {
+        last_of(f.tripod_e(c))
+    } else {
+        last_of(f.tripod_e64(c))
+    }
+}
+
+/// Mask of the intermediate voxel of a corner move (7) out of local voxel
+/// `c`, else 0.
+#[inline]
+fn split_at(f: &Frame, c: [i64; 3], mask: usize) -> usize {
+    if mask == 7 {
+        7 ^ (1 << last_crossed(f, c))
+    } else {
+        0
+    }
+}
+
+/// The 26-line's midpoint state plus the third tripod variable `e_vu`, so
+/// that a corner move knows its last crossing without re-deriving the tripod
+/// variables: at a column-centre voxel `e_mu = E_mu − D_u·S/2`,
+/// `e_mv = E_mv − D_v·S/2`, and `e_vu` changes by `−D_v·S` on a u move and
+/// `+D_u·S` on a v move (none on m).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Mid18<T> {
+    s: Mid26State<T>,
+    evu: T,
+    hu: T,
+    hv: T,
+}
+
+impl<T: DecisionInt> Mid18<T> {
+    #[inline]
+    pub(crate) fn at(f: &Frame, c: [i64; 3]) -> Self {
+        let half = |x: i64| {
+            if T::WIDE {
+                T::from_i128(x as i128 * HALF as i128)
+            } else {
+                T::from_i64(x * HALF)
+            }
+        };
+        Mid18 {
+            s: Mid26State::at(f, c),
+            evu: f.tripod_e_t::<T>(c)[2],
+            hu: half(f.d[1]),
+            hv: half(f.d[2]),
+        }
+    }
+
+    /// One column: the 26-line's move mask and, for a corner move, the mask
+    /// of the intermediate voxel (else 0).
+    #[inline(always)]
+    pub(crate) fn step(&mut self) -> (usize, usize) {
+        let e = [self.s.eu - self.hu, self.s.ev - self.hv, self.evu];
+        let su = !self.s.eu.neg_mask();
+        let sv = !self.s.ev.neg_mask();
+        let mask = self.s.step();
+        self.evu += (sv & self.s.du) - (su & self.s.dv);
+        let split = if mask == 7 { 7 ^ (1 << last_of(e)) } else { 0 };
+        (mask, split)
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum AnyMid18 {
+    Narrow(Mid18<i64>),
+    Wide(Mid18<i128>),
+}
+
+/// Runs `n` middle columns, emitting (move mask, split mask) pairs.
+#[inline(always)]
+fn run_mid18<T: DecisionInt, B>(
+    s: &mut Mid18<T>,
+    n: u64,
+    mut acc: B,
+    emit: &mut impl FnMut(B, usize, usize) -> ControlFlow<B, B>,
+) -> ControlFlow<B, B> {
+    for _ in 0..n {
+        let (mask, split) = s.step();
+        acc = emit(acc, mask, split)?;
+    }
+    ControlFlow::Continue(acc)
+}
+
+/// Cursor over the 26-line's moves with each corner move's split: prefix,
+/// middle (the [`Mid18`] recurrence), suffix. `local` is the local voxel
+/// before the next prefix or suffix move (stale inside the middle).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Cursor18 {
+    plan: Plan26,
+    pre_i: usize,
+    mid_left: u64,
+    mid: AnyMid18,
+    post_i: usize,
+    local: [i64; 3],
+}
+
+impl Cursor18 {
+    /// Cursor standing at 26-line position `p`.
+    pub(crate) fn at(f: &Frame, plan: Plan26, p: u64) -> Self {
+        let pre = plan.pre.len as u64;
+        let (pre_i, mid_left, mid_at, post_i) = if p <= pre {
+            (p as usize, plan.mid, plan.mid_start, 0)
+        } else if p <= pre + plan.mid {
+            let c = f.centre((p - pre + 1) as i64);
+            (plan.pre.len, plan.mid - (p - pre), c, 0)
+        } else {
+            (
+                plan.pre.len,
+                0,
+                plan.mid_start,
+                (p - pre - plan.mid) as usize,
+            )
+        };
+        let mid = if f.wide {
+            AnyMid18::Wide(Mid18::at(f, mid_at))
+        } else {
+            AnyMid18::Narrow(Mid18::at(f, mid_at))
+        };
+        Cursor18 {
+            plan,
+            pre_i,
+            mid_left,
+            mid,
+            post_i,
+            local: plan.voxel_at(f, p),
+        }
+    }
+
+    /// Emits the next `n` moves (the caller knows they exist) as
+    /// `(mask, split)`; stops at the first `Break`, after which the cursor is
+    /// unspecified.
+    #[inline(always)]
+    pub(crate) fn drive<B>(
+        &mut self,
+        f: &Frame,
+        mut n: u64,
+        mut acc: B,
+        mut emit: impl FnMut(B, usize, usize) -> ControlFlow<B, B>,
+    ) -> ControlFlow<B, B> {
+        let add = |c: [i64; 3], mask: usize| -> [i64; 3] {
+            std::array::from_fn(|k| c[k] + (mask >> k & 1) as i64)
+        };
+        while n > 0 && self.pre_i < self.plan.pre.len {
+            let mask = self.plan.pre.m[self.pre_i] as usize;
+            self.pre_i += 1;
+            n -= 1;
+            let split = split_at(f, self.local, mask);
+            self.local = add(self.local, mask);
+            acc = emit(acc, mask, split)?;
+        }
+        let k = n.min(self.mid_left);
+        if k > 0 {
+            n -= k;
+            self.mid_left -= k;
+            acc = match &mut self.mid {
+                AnyMid18::Narrow(s) => run_mid18(s, k, acc, &mut emit)?,
+                AnyMid18::Wide(s) => run_mid18(s, k, acc, &mut emit)?,
+            };
+            if self.mid_left == 0 {
+                self.local = self.plan.post_start;
+            }
+        }
+        while n > 0 && self.post_i < self.plan.post.len {
+            let mask = self.plan.post.m[self.post_i] as usize;
+            self.post_i += 1;
+            n -= 1;
+            let split = split_at(f, self.local, mask);
+            self.local = add(self.local, mask);
+            acc = emit(acc, mask, split)?;
+        }
+        debug_assert_eq!(n, 0, "18-line cursor ran past the line");
+        ControlFlow::Continue(acc)
     }
 }
 
@@ -43,73 +227,40 @@ pub(crate) fn last_crossed(f: &Frame, c: [i64; 3]) -> usize {
 /// assert_eq!(v.len(), 5); // two corner moves, each split in two
 /// assert_eq!(v[4], [2, 2, 2]);
 /// ```
-#[derive(Clone, Debug)]
+#[derive(Clone, Copy, Debug)]
 pub struct Line18 {
     frame: Frame,
-    cursor: Cursor26,
-    cur: [i64; 3],
-    pending: Option<[i64; 3]>,
+    cursor: Cursor18,
+    steps: [IVec3; 8],
+    /// The last voxel returned (the start voxel before the first).
+    cur: IVec3,
+    /// The 26-line voxel after a returned intermediate voxel.
+    pending: Option<IVec3>,
+    /// 26-line voxels not yet returned.
     remaining26: u64,
     started: bool,
 }
 
 impl Line18 {
     /// The whole line of `seg`.
+    #[inline]
     pub fn new(seg: &Segment) -> Self {
-        let f = Frame::new(seg);
+        Self::from_frame(&Frame::new(seg))
+    }
+
+    #[inline]
+    pub(crate) fn from_frame(f: &Frame) -> Self {
+        let f = *f;
         let plan = Plan26::new(&f);
         Line18 {
             frame: f,
-            cursor: Cursor26::at(&f, plan, 0),
-            cur: [0; 3],
+            cursor: Cursor18::at(&f, plan, 0),
+            steps: f.mask_steps(),
+            cur: f.voxel_world([0; 3]),
             pending: None,
             remaining26: plan.count(),
             started: false,
         }
-    }
-
-    /// Starts at 26-line position `p` (used by the grid walk).
-    pub(crate) fn at_position(f: &Frame, plan: Plan26, p: u64) -> Self {
-        Line18 {
-            frame: *f,
-            cursor: Cursor26::at(f, plan, p),
-            cur: plan.voxel_at(f, p),
-            pending: None,
-            remaining26: plan.count() - p,
-            started: false,
-        }
-    }
-
-    /// Next voxel in local coordinates.
-    #[inline]
-    pub(crate) fn next_local(&mut self) -> Option<[i64; 3]> {
-        if !self.started {
-            self.started = true;
-            return (self.remaining26 > 0).then_some(self.cur);
-        }
-        if let Some(p) = self.pending.take() {
-            self.cur = p;
-            return Some(p);
-        }
-        if self.remaining26 <= 1 {
-            self.remaining26 = 0;
-            return None;
-        }
-        self.remaining26 -= 1;
-        let mask = self.cursor.advance();
-        let mut next = self.cur;
-        for (k, nk) in next.iter_mut().enumerate() {
-            *nk += (mask >> k & 1) as i64;
-        }
-        if mask == 7 {
-            let mut mid = next;
-            mid[last_crossed(&self.frame, self.cur)] -= 1;
-            self.pending = Some(next);
-            self.cur = mid;
-            return Some(mid);
-        }
-        self.cur = next;
-        Some(next)
     }
 }
 
@@ -117,14 +268,70 @@ impl Iterator for Line18 {
     type Item = IVec3;
     #[inline]
     fn next(&mut self) -> Option<IVec3> {
-        self.next_local().map(|c| self.frame.voxel_world(c))
+        if !self.started {
+            self.started = true;
+            self.remaining26 -= 1;
+            return Some(self.cur);
+        }
+        if let Some(p) = self.pending.take() {
+            self.cur = p;
+            return Some(p);
+        }
+        if self.remaining26 == 0 {
+            return None;
+        }
+        self.remaining26 -= 1;
+        let mut out = (0, 0);
+        let _ = self.cursor.drive(&self.frame, 1, (), |(), m, s| {
+            out = (m, s);
+            ControlFlow::Continue(())
+        });
+        let (mask, split) = out;
+        let next = self.cur + self.steps[mask];
+        if split != 0 {
+            self.pending = Some(next);
+            self.cur += self.steps[split];
+        } else {
+            self.cur = next;
+        }
+        Some(self.cur)
     }
 
     fn size_hint(&self) -> (usize, Option<usize>) {
-        let base = self.remaining26.saturating_sub(u64::from(self.started))
-            + u64::from(self.pending.is_some());
+        let base = self.remaining26 + u64::from(self.pending.is_some());
         let lo = usize::try_from(base).unwrap_or(usize::MAX);
         (lo, lo.checked_mul(2))
+    }
+
+    /// Internal iteration: the middle of the line as one tight loop.
+    #[inline]
+    fn fold<B, G: FnMut(B, IVec3) -> B>(mut self, init: B, mut g: G) -> B {
+        let mut acc = init;
+        if !self.started {
+            self.remaining26 -= 1;
+            acc = g(acc, self.cur);
+        }
+        let mut cur = self.cur;
+        if let Some(p) = self.pending {
+            cur = p;
+            acc = g(acc, cur);
+        }
+        let steps = self.steps;
+        let r = self.cursor.drive(
+            &self.frame,
+            self.remaining26,
+            acc,
+            |mut acc, mask, split| {
+                if split != 0 {
+                    acc = g(acc, cur + steps[split]);
+                }
+                cur += steps[mask];
+                ControlFlow::Continue(g(acc, cur))
+            },
+        );
+        match r {
+            ControlFlow::Continue(acc) | ControlFlow::Break(acc) => acc,
+        }
     }
 }
 

@@ -24,46 +24,43 @@
 use glam::IVec3;
 
 use super::clip::GridBox;
-use super::segment::{DecisionInt, Frame, Segment, within26};
+use super::segment::{DecisionInt, Frame, Segment};
+use super::tripod6::TripodState;
 
 /// The Fig. 4 stepping state: two midpoint variables and their forward
 /// differences. `step` returns the local move mask (bit 0 = m, always set;
 /// bit 1 = u; bit 2 = v).
 #[derive(Clone, Copy, Debug)]
 pub struct Mid26State<T> {
-    eu: T,
-    ev: T,
-    du: T,
-    dv: T,
-    dum: T,
-    dvm: T,
+    pub(crate) eu: T,
+    pub(crate) ev: T,
+    /// `D_u·S`, `D_v·S`.
+    pub(crate) du: T,
+    pub(crate) dv: T,
+    /// `D_m·S`.
+    dm: T,
 }
 
 impl<T: DecisionInt> Mid26State<T> {
+    #[inline]
     pub(crate) fn at(frame: &Frame, c: [i64; 3]) -> Self {
-        let [eu, ev] = frame.mid_e(c);
-        let s = crate::fixed::ONE as i128;
-        let [dm, du, dv] = frame.d.map(|x| x as i128 * s);
-        Mid26State {
-            eu: T::from_i128(eu),
-            ev: T::from_i128(ev),
-            du: T::from_i128(du),
-            dv: T::from_i128(dv),
-            dum: T::from_i128(du - dm),
-            dvm: T::from_i128(dv - dm),
-        }
+        let [eu, ev] = frame.mid_e_t::<T>(c);
+        let [dm, du, dv] = frame.scaled_d::<T>();
+        Mid26State { eu, ev, du, dv, dm }
     }
 
     /// One column step; returns the local move mask.
     #[inline(always)]
     pub fn step(&mut self) -> usize {
-        // The tree of Fig. 4, written as selects so that it compiles to
-        // conditional moves (random slopes make the branches unpredictable).
-        let su = self.eu >= T::ZERO;
-        let sv = self.ev >= T::ZERO;
-        self.eu += if su { self.dum } else { self.du };
-        self.ev += if sv { self.dvm } else { self.dv };
-        1 | (usize::from(su) << 1) | (usize::from(sv) << 2)
+        // The tree of Fig. 4 as sign masks (`E ≥ 0`: all ones): random
+        // slopes make branches unpredictable, and a select between the two
+        // differences compiled to a load on the dependency chain. With
+        // `D − D_m` = `D + (−D_m)`: `E += D − (mask & D_m)`.
+        let su = !self.eu.neg_mask();
+        let sv = !self.ev.neg_mask();
+        self.eu += self.du - (su & self.dm);
+        self.ev += self.dv - (sv & self.dm);
+        1 | (su.low_bits() & 2) | (sv.low_bits() & 4)
     }
 }
 
@@ -74,6 +71,7 @@ pub(crate) enum AnyMid {
 }
 
 impl AnyMid {
+    #[inline]
     pub(crate) fn at(f: &Frame, c: [i64; 3]) -> Self {
         if f.wide {
             AnyMid::Wide(Mid26State::at(f, c))
@@ -95,131 +93,102 @@ impl AnyMid {
 const MAX_SPECIAL: usize = 8;
 
 /// A short list of local move masks.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct Moves {
     pub m: [u8; MAX_SPECIAL],
     pub len: usize,
 }
 
-/// Longest tripod path between a line's end voxel and its first or last
-/// column centre (at most 7 steps: see [`MAX_SPECIAL`]), with room to spare.
-const MAX_PATH: usize = 16;
-
-/// A short tripod path kept on the stack: the 26-line plans two per line,
-/// and a heap allocation there cost more than the whole middle of a
-/// 64-voxel line.
-struct ShortPath {
-    v: [[i64; 3]; MAX_PATH],
-    len: usize,
-}
-
-impl std::ops::Deref for ShortPath {
-    type Target = [[i64; 3]];
-    fn deref(&self) -> &[[i64; 3]] {
-        &self.v[..self.len]
-    }
-}
-
-/// The exact tripod path (local voxels) from `from` to `to`, both on it.
-fn tripod_path(f: &Frame, from: [i64; 3], to: [i64; 3]) -> ShortPath {
-    let mut e = f.tripod_e(from);
-    let mut c = from;
-    let mut out = ShortPath {
-        v: [[0; 3]; MAX_PATH],
-        len: 1,
-    };
-    out.v[0] = c;
-    let n: i64 = (0..3).map(|k| to[k] - c[k]).sum();
+/// The tripod path from `from` to `to` (both on it), compressed greedily to
+/// a 26-path: from the last kept voxel, jump to the furthest later voxel that
+/// is still a 26-neighbour. The path is monotone with unit steps, so that
+/// voxel is the one before the first axis repeats: one pass, no buffer.
+#[inline]
+fn moves_between(f: &Frame, from: [i64; 3], to: [i64; 3]) -> Moves {
+    let n: i64 = (0..3).map(|k| to[k] - from[k]).sum();
+    // Between a line end and its first or last column centre: ≤ 1 + 2 + 2.
     assert!(
-        (n.max(0) as usize) < MAX_PATH,
+        (0..=MAX_SPECIAL as i64).contains(&n),
         "tripod path between a line end and its column centre has {n} steps"
     );
-    for _ in 0..n.max(0) {
-        let k = Frame::tripod_choice(e);
-        f.tripod_advance(&mut e, k);
-        c[k] += 1;
-        out.v[out.len] = c;
-        out.len += 1;
+    if f.wide {
+        compress_steps(TripodState::<i128>::at(f, from), n as usize)
+    } else {
+        compress_steps(TripodState::<i64>::at(f, from), n as usize)
     }
-    debug_assert_eq!(c, to, "tripod path does not reach its target");
-    out
 }
 
-/// Greedy 26-compression of a tripod path: from the last kept voxel, jump to
-/// the furthest later voxel that is still a 26-neighbour.
-fn compress(path: &[[i64; 3]]) -> Moves {
+#[inline]
+fn compress_steps<T: DecisionInt>(mut s: TripodState<T>, n: usize) -> Moves {
     let mut mv = Moves::default();
-    let mut i = 0;
-    while i + 1 < path.len() {
-        let mut j = i + 1;
-        while j + 1 < path.len() && within26(path[i], path[j + 1]) {
-            j += 1;
+    let mut mask = 0u8;
+    for _ in 0..n {
+        let bit = 1u8 << s.step();
+        if mask & bit != 0 {
+            mv.m[mv.len] = mask;
+            mv.len += 1;
+            mask = 0;
         }
-        let mut mask = 0u8;
-        for (k, (p, q)) in path[j].iter().zip(path[i].iter()).enumerate() {
-            if p != q {
-                mask |= 1 << k;
-            }
-        }
+        mask |= bit;
+    }
+    if mask != 0 {
         mv.m[mv.len] = mask;
         mv.len += 1;
-        i = j;
     }
     mv
 }
 
 /// The shape of a 26-line: prefix moves, middle column count, suffix moves.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Plan26 {
     pub pre: Moves,
     pub mid: u64,
     pub post: Moves,
     /// Local voxel where the middle starts (centre of column 1), if any.
     pub mid_start: [i64; 3],
+    /// Local voxel where the suffix starts (centre of column `M − 1`), if
+    /// any.
+    pub post_start: [i64; 3],
 }
 
 impl Plan26 {
+    #[inline]
     pub(crate) fn new(f: &Frame) -> Self {
         let m = f.end[0];
-        let integer =
-            (0..3).all(|k| f.a[k] % crate::fixed::ONE == 0 && f.d[k] % crate::fixed::ONE == 0);
-        if integer && m >= 2 {
+        if m < 2 {
+            return Plan26 {
+                pre: moves_between(f, [0; 3], f.end),
+                mid: 0,
+                post: Moves::default(),
+                mid_start: [0; 3],
+                post_start: [0; 3],
+            };
+        }
+        let one = crate::fixed::ONE;
+        let integer = (0..3).all(|k| (f.a[k] | f.d[k]) & (one - 1) == 0);
+        let cl = f.centre_last();
+        let (pre, c1, post);
+        if integer {
             // Integer endpoints (Fig. 4 proper): every voxel is a column
             // centre, the end voxels included, so the end paths are single
             // moves: the first from the midpoint state at voxel 0, the last
             // from column m − 1 to the end voxel. Same layout as below.
             let first = AnyMid::at(f, [0; 3]).step() as u8;
-            let cl = f.centre(m - 1);
             let last = (0..3).fold(0u8, |mask, k| mask | (u8::from(f.end[k] != cl[k]) << k));
-            let single = |mv: u8| {
-                let mut moves = Moves::default();
-                moves.m[0] = mv;
-                moves.len = 1;
-                moves
-            };
-            return Plan26 {
-                pre: single(first),
-                mid: (m - 2) as u64,
-                post: single(last),
-                mid_start: [1, i64::from(first >> 1 & 1), i64::from(first >> 2 & 1)],
-            };
-        }
-        if m >= 2 {
-            let c1 = f.centre(1);
-            let cl = f.centre(m - 1);
-            Plan26 {
-                pre: compress(&tripod_path(f, [0; 3], c1)),
-                mid: (m - 2) as u64,
-                post: compress(&tripod_path(f, cl, f.end)),
-                mid_start: c1,
-            }
+            pre = single(first);
+            post = single(last);
+            c1 = [1, i64::from(first >> 1 & 1), i64::from(first >> 2 & 1)];
         } else {
-            Plan26 {
-                pre: compress(&tripod_path(f, [0; 3], f.end)),
-                mid: 0,
-                post: Moves::default(),
-                mid_start: [0; 3],
-            }
+            c1 = f.centre_first();
+            pre = moves_between(f, [0; 3], c1);
+            post = moves_between(f, cl, f.end);
+        }
+        Plan26 {
+            pre,
+            mid: (m - 2) as u64,
+            post,
+            mid_start: c1,
+            post_start: cl,
         }
     }
 
@@ -245,7 +214,7 @@ impl Plan26 {
         } else if p <= pre + self.mid {
             f.centre((p - pre + 1) as i64)
         } else {
-            let mut c = f.centre(f.end[0] - 1);
+            let mut c = self.post_start;
             for &mk in &self.post.m[..(p - pre - self.mid) as usize] {
                 c = apply(c, mk);
             }
@@ -286,6 +255,13 @@ impl Plan26 {
             .or_else(|| (0..=pre).rev().find(|&p| inside(self.voxel_at(f, p))))?;
         (first <= last).then_some((first, last))
     }
+}
+
+fn single(mv: u8) -> Moves {
+    let mut moves = Moves::default();
+    moves.m[0] = mv;
+    moves.len = 1;
+    moves
 }
 
 /// Smallest column `c` whose centre voxel has local coordinate `≥ target`
@@ -385,13 +361,19 @@ pub struct Line26 {
 
 impl Line26 {
     /// The whole line of `seg`.
+    #[inline]
     pub fn new(seg: &Segment) -> Self {
-        let f = Frame::new(seg);
+        Self::from_frame(&Frame::new(seg))
+    }
+
+    #[inline]
+    pub(crate) fn from_frame(f: &Frame) -> Self {
+        let f = *f;
         let plan = Plan26::new(&f);
         Line26 {
             cur: f.voxel_world([0; 3]),
             cursor: Cursor26::at(&f, plan, 0),
-            steps: std::array::from_fn(|m| f.mask_step(m as u8)),
+            steps: f.mask_steps(),
             remaining: plan.count(),
         }
     }
@@ -408,7 +390,7 @@ impl Line26 {
         Line26 {
             cur: f.voxel_world(plan.voxel_at(&f, p)),
             cursor: Cursor26::at(&f, plan, p),
-            steps: std::array::from_fn(|m| f.mask_step(m as u8)),
+            steps: f.mask_steps(),
             remaining: n,
         }
     }
@@ -433,6 +415,57 @@ impl Iterator for Line26 {
     fn size_hint(&self) -> (usize, Option<usize>) {
         let n = usize::try_from(self.remaining).unwrap_or(usize::MAX);
         (n, usize::try_from(self.remaining).ok())
+    }
+
+    #[inline]
+    fn fold<B, G: FnMut(B, IVec3) -> B>(self, init: B, g: G) -> B {
+        self.run(init, g)
+    }
+}
+
+impl Line26 {
+    /// Internal iteration: the prefix and suffix moves from their lists, the
+    /// middle as one tight loop of the midpoint state (no per-voxel phase
+    /// test, the `i64`/`i128` choice made once).
+    #[inline(always)]
+    fn run<B>(mut self, init: B, mut g: impl FnMut(B, IVec3) -> B) -> B {
+        let mut acc = init;
+        if self.remaining == 0 {
+            return acc;
+        }
+        let mut cur = self.cur;
+        acc = g(acc, cur);
+        let mut left = self.remaining - 1;
+        let c = &mut self.cursor;
+        let steps = self.steps;
+        while left > 0 && c.pre_i < c.plan.pre.len {
+            cur += steps[c.plan.pre.m[c.pre_i] as usize & 7];
+            c.pre_i += 1;
+            left -= 1;
+            acc = g(acc, cur);
+        }
+        let n = left.min(c.mid_left);
+        left -= n;
+        match &mut c.mid {
+            AnyMid::Narrow(s) => {
+                for _ in 0..n {
+                    cur += steps[s.step()];
+                    acc = g(acc, cur);
+                }
+            }
+            AnyMid::Wide(s) => {
+                for _ in 0..n {
+                    cur += steps[s.step()];
+                    acc = g(acc, cur);
+                }
+            }
+        }
+        let post = &c.plan.post.m[c.post_i..];
+        for &mv in post.iter().take(left as usize) {
+            cur += steps[mv as usize & 7];
+            acc = g(acc, cur);
+        }
+        acc
     }
 }
 

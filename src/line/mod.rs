@@ -20,9 +20,13 @@
 //! rule documented in [`segment`]: the tripod's voxel set is the same for
 //! `a→b` and `b→a`.
 //!
-//! Cost: O(1) set-up (a few `i128` products; the 26-line's prefix/suffix at
-//! most ~16 tripod steps), then O(1) per voxel: two sign tests and two or three
-//! additions per step.
+//! Cost: O(1) set-up, then O(1) per voxel: two or three sign tests and a few
+//! additions per step (branch-free sign masks in the grid walks). On narrow
+//! frames (no axis longer than 2^20 voxels) the set-up is `i64` and division-free: start states from
+//! wrapping products that are exact because the result is bounded (see
+//! [`segment`]), the 26-line's first and last column centres by three
+//! comparisons, its end paths compressed while stepping. Longer segments use
+//! the general `i128` formulas; tests pin both against each other.
 
 pub mod adaptive;
 pub mod amanatides_woo;
@@ -33,6 +37,9 @@ pub mod line2d;
 pub mod segment;
 pub mod tripod6;
 pub mod walk;
+
+#[cfg(test)]
+mod fast_tests;
 
 pub use adaptive::{AdaptiveRay, OCCUPIED, PROXIMITY, RayMode, adaptive_walk, set_proximity_flags};
 pub use clip::GridBox;

@@ -38,9 +38,12 @@ use crate::grid::Voxel;
 /// Largest supported fixed-point coordinate magnitude (`2^30` voxels).
 pub const MAX_FIXED: i64 = 1 << (30 + fixed::FRAC_BITS);
 
-/// Direction components (fixed point) up to this bound run on `i64` decision
-/// variables; longer segments (more than 2^20 voxels along an axis) use
-/// `i128`. Decision variables stay within `3·S·max(D) ≤ 3·2^60 < 2^62`.
+/// Direction components (fixed point) up to this bound (2^20 voxels) run on
+/// `i64` decision variables and an `i64`, division-free set-up; longer
+/// segments use `i128` throughout. On the line's voxels the decision
+/// variables stay within `S·max(D) + S·max(D)/2 + 1 ≤ 1.5·2^60 + 1`, and every
+/// set-up product within `2.5·2^60` (see `Frame::tripod_e64`,
+/// `Frame::centre_first`, `Frame::centre_last`): below `2^63`.
 pub const NARROW_MAX_DELTA: i64 = 1 << 40;
 
 /// A validated 3D segment in grid space, endpoints in fixed point
@@ -140,15 +143,40 @@ pub trait DecisionInt:
     + core::ops::Sub<Output = Self>
     + core::ops::AddAssign
     + core::ops::SubAssign
+    + core::ops::BitAnd<Output = Self>
+    + core::ops::BitOr<Output = Self>
+    + core::ops::Not<Output = Self>
 {
     /// Zero.
     const ZERO: Self;
+    /// Whether this is the wide (`i128`) type: set-up then uses the general
+    /// `i128` formulas instead of the `i64` ones.
+    const WIDE: bool;
     /// Narrows an exact `i128` value; the caller has proved it fits.
     fn from_i128(v: i128) -> Self;
+    /// Widens an `i64` value.
+    fn from_i64(v: i64) -> Self;
+    /// All bits set if negative, else zero (a branch-free sign test).
+    fn neg_mask(self) -> Self;
+    /// The low bits, for building a move index from masks.
+    fn low_bits(self) -> usize;
 }
 
 impl DecisionInt for i64 {
     const ZERO: Self = 0;
+    const WIDE: bool = false;
+    #[inline(always)]
+    fn from_i64(v: i64) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn neg_mask(self) -> Self {
+        self >> 63
+    }
+    #[inline(always)]
+    fn low_bits(self) -> usize {
+        self as usize
+    }
     #[inline(always)]
     fn from_i128(v: i128) -> Self {
         debug_assert!(
@@ -161,6 +189,19 @@ impl DecisionInt for i64 {
 
 impl DecisionInt for i128 {
     const ZERO: Self = 0;
+    const WIDE: bool = true;
+    #[inline(always)]
+    fn from_i64(v: i64) -> Self {
+        v as i128
+    }
+    #[inline(always)]
+    fn neg_mask(self) -> Self {
+        self >> 127
+    }
+    #[inline(always)]
+    fn low_bits(self) -> usize {
+        self as usize
+    }
     #[inline(always)]
     fn from_i128(v: i128) -> Self {
         v
@@ -198,6 +239,7 @@ pub(crate) struct Frame {
 pub(crate) const PAIRS: [(usize, usize); 3] = [(0, 1), (0, 2), (2, 1)];
 
 impl Frame {
+    #[inline]
     pub fn new(seg: &Segment) -> Self {
         let (a, b) = (seg.a, seg.b);
         let v0w = [
@@ -233,8 +275,9 @@ impl Frame {
         let pneg_of = |i: usize, j: usize| -> bool {
             let (wi, wj) = (perm[i], perm[j]);
             // p = −D_j s_i δ_i + D_i s_j δ_j; the dominant infinitesimal decides.
-            let ci = -(wd[wj] as i128) * wsign[wi] as i128;
-            let cj = wd[wi] as i128 * wsign[wj] as i128;
+            // (Components are < 2^52 and signs ±1: the products fit i64.)
+            let ci = -wd[wj] * wsign[wi];
+            let cj = wd[wi] * wsign[wj];
             let (first, second) = if SHIFT_RANK[wi] < SHIFT_RANK[wj] {
                 (ci, cj)
             } else {
@@ -278,16 +321,11 @@ impl Frame {
         })
     }
 
-    /// World step of a local move mask (bit k set: +1 along local axis k).
-    pub fn mask_step(&self, mask: u8) -> IVec3 {
-        let s = self.world_steps();
-        let mut w = IVec3::ZERO;
-        for (k, sk) in s.iter().enumerate() {
-            if mask & (1 << k) != 0 {
-                w += *sk;
-            }
-        }
-        w
+    /// World steps of all eight local move masks.
+    #[inline]
+    pub fn mask_steps(&self) -> [IVec3; 8] {
+        let [a, b, c] = self.world_steps();
+        [IVec3::ZERO, a, b, a + b, c, a + c, b + c, a + b + c]
     }
 
     /// Distance from the start point to the exit face of local voxel `c` along
@@ -308,6 +346,76 @@ impl Frame {
         out
     }
 
+    /// [`Frame::tripod_e`] in `i64`, for narrow frames (`!wide`) and voxels `c`
+    /// on the tripod path of the line.
+    ///
+    /// Bound: a path voxel is touched by the closed segment, at a point
+    /// `a + t·D` with `0 ≤ r_k − t·D_k ≤ S` on every axis, so
+    /// `e_ij = D_j (r_i − t D_i) − D_i (r_j − t D_j)` lies in `[−D_i·S, D_j·S]`
+    /// and `|e − bias| ≤ S·D_m + 1 ≤ 2^60 + 1` (`D_m ≤ 2^40`). The products are
+    /// formed in wrapping `i64`: they may overflow for far voxels, but the
+    /// result is exact modulo 2^64 and fits, hence exact.
+    #[inline]
+    pub fn tripod_e64(&self, c: [i64; 3]) -> [i64; 3] {
+        debug_assert!(!self.wide, "i64 set-up on a wide frame");
+        let r = |k: usize| c[k].wrapping_mul(ONE).wrapping_add(HALF - self.a[k]);
+        let (rm, ru, rv) = (r(0), r(1), r(2));
+        let [dm, du, dv] = self.d;
+        let e = [
+            du.wrapping_mul(rm)
+                .wrapping_sub(dm.wrapping_mul(ru))
+                .wrapping_sub(self.bias[0]),
+            dv.wrapping_mul(rm)
+                .wrapping_sub(dm.wrapping_mul(rv))
+                .wrapping_sub(self.bias[1]),
+            du.wrapping_mul(rv)
+                .wrapping_sub(dv.wrapping_mul(ru))
+                .wrapping_sub(self.bias[2]),
+        ];
+        debug_assert_eq!(
+            e.map(i128::from),
+            self.tripod_e(c),
+            "i64 tripod set-up at {c:?}"
+        );
+        e
+    }
+
+    /// Biased tripod variables in `T`: the `i64` formulas for `i64`, the
+    /// general `i128` ones otherwise.
+    #[inline]
+    pub fn tripod_e_t<T: DecisionInt>(&self, c: [i64; 3]) -> [T; 3] {
+        if T::WIDE {
+            self.tripod_e(c).map(T::from_i128)
+        } else {
+            self.tripod_e64(c).map(T::from_i64)
+        }
+    }
+
+    /// Direction components times `S` in `T` (`≤ 2^60` on narrow frames).
+    #[inline]
+    pub fn scaled_d<T: DecisionInt>(&self) -> [T; 3] {
+        if T::WIDE {
+            self.d.map(|x| T::from_i128(x as i128 * ONE as i128))
+        } else {
+            self.d.map(|x| T::from_i64(x * ONE))
+        }
+    }
+
+    /// [`Frame::mid_e`] in `T` (narrow: `|E| ≤ 1.5·2^60 + 1` at the line's
+    /// voxels, see [`Frame::tripod_e64`]).
+    #[inline]
+    pub fn mid_e_t<T: DecisionInt>(&self, c: [i64; 3]) -> [T; 2] {
+        if T::WIDE {
+            self.mid_e(c).map(T::from_i128)
+        } else {
+            let e = self.tripod_e64(c);
+            [
+                T::from_i64(e[0] + self.d[1] * HALF),
+                T::from_i64(e[1] + self.d[2] * HALF),
+            ]
+        }
+    }
+
     /// Biased 26-line midpoint variables `[E_mu, E_mv]` at local voxel `c`:
     /// `E ≥ 0` iff the next column's centre rounds one voxel up on that axis.
     pub fn mid_e(&self, c: [i64; 3]) -> [i128; 2] {
@@ -318,8 +426,62 @@ impl Frame {
         ]
     }
 
+    /// [`Frame::centre`] of column 1 (the line's `M ≥ 2`), without division
+    /// on narrow frames.
+    ///
+    /// The numerator `n_k = D_k (S − a_m) + D_m (a_k + S/2) − bias` lies in
+    /// `[−1, 2.5·D_m·S] ⊂ (−D_m S, 3 D_m S)` (`|a| ≤ S/2`, `D_k ≤ D_m`), so the
+    /// floor of `n_k / (D_m S)` is one of −1, 0, 1, 2: three comparisons,
+    /// `i64` (`≤ 2.5·2^60`).
+    #[inline]
+    pub fn centre_first(&self) -> [i64; 3] {
+        debug_assert!(self.end[0] >= 2);
+        if self.wide {
+            return self.centre(1);
+        }
+        let den = self.d[0] * ONE;
+        let q = |k: usize, bias: i64| -> i64 {
+            let n = self.d[k] * (ONE - self.a[0]) + self.d[0] * (self.a[k] + HALF) - bias;
+            debug_assert!(n > -den && n < 3 * den);
+            i64::from(n >= den) + i64::from(n >= 2 * den) - i64::from(n < 0)
+        };
+        let c = [1, q(1, self.bias[0]), q(2, self.bias[1])];
+        debug_assert_eq!(c, self.centre(1));
+        c
+    }
+
+    /// [`Frame::centre`] of column `M − 1` (the line's `M ≥ 2`), without
+    /// division on narrow frames.
+    ///
+    /// Measured from the end point `B = a + D` (local) the numerator is
+    /// `n_k − V1_k·D_m·S = D_m (B_k − V1_k S + S/2) − D_k (B_m − (M − 1) S) − bias`
+    /// with `B_k − V1_k S + S/2 ∈ [0, S]` and `B_m − (M − 1) S ∈ [S/2, 3S/2]`:
+    /// in `[−1.5·D_m S − 1, D_m S]`, so the floor relative to `V1_k` is one of
+    /// −2, −1, 0, 1.
+    #[inline]
+    pub fn centre_last(&self) -> [i64; 3] {
+        let m = self.end[0];
+        debug_assert!(m >= 2);
+        if self.wide {
+            return self.centre(m - 1);
+        }
+        let den = self.d[0] * ONE;
+        let bm = self.a[0] + self.d[0] - (m - 1) * ONE;
+        let q = |k: usize, bias: i64| -> i64 {
+            let bk = self.a[k] + self.d[k] - self.end[k] * ONE + HALF;
+            let n = self.d[0] * bk - self.d[k] * bm - bias;
+            debug_assert!(n >= -2 * den && n < 2 * den);
+            self.end[k] - 2 + i64::from(n >= -den) + i64::from(n >= 0) + i64::from(n >= den)
+        };
+        let c = [m - 1, q(1, self.bias[0]), q(2, self.bias[1])];
+        debug_assert_eq!(c, self.centre(m - 1));
+        c
+    }
+
     /// The 26-line's voxel of column `c` (local): the line's minor
-    /// coordinates at the column centre, rounded by the tie rule.
+    /// coordinates at the column centre, rounded by the tie rule. General
+    /// (`i128`, one division per axis); the line's set-up uses
+    /// [`Frame::centre_first`] / [`Frame::centre_last`].
     pub fn centre(&self, c: i64) -> [i64; 3] {
         let s = ONE as i128;
         let dm = self.d[0] as i128;
@@ -338,42 +500,4 @@ impl Frame {
     pub fn tripod_steps(&self) -> u64 {
         self.end.iter().map(|&e| e as u64).sum()
     }
-
-    /// The local move (bit mask) of one tripod step from biased variables.
-    #[inline]
-    pub fn tripod_choice(e: [i128; 3]) -> usize {
-        if e[0] < 0 {
-            if e[1] < 0 { 0 } else { 2 }
-        } else if e[2] < 0 {
-            2
-        } else {
-            1
-        }
-    }
-
-    /// Advances exact (`i128`) tripod variables by a step along local axis `k`.
-    pub fn tripod_advance(&self, e: &mut [i128; 3], k: usize) {
-        let s = ONE as i128;
-        let [dm, du, dv] = self.d.map(|x| x as i128 * s);
-        match k {
-            0 => {
-                e[0] += du;
-                e[1] += dv;
-            }
-            1 => {
-                e[0] -= dm;
-                e[2] -= dv;
-            }
-            _ => {
-                e[1] -= dm;
-                e[2] += du;
-            }
-        }
-    }
-}
-
-/// Whether two local voxels are distinct 26-neighbours (or equal).
-#[inline]
-pub(crate) fn within26(p: [i64; 3], q: [i64; 3]) -> bool {
-    (0..3).all(|k| (p[k] - q[k]).abs() <= 1)
 }

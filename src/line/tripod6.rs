@@ -37,12 +37,11 @@ pub struct TripodState<T> {
 }
 
 impl<T: DecisionInt> TripodState<T> {
+    #[inline]
     pub(crate) fn at(frame: &Frame, c: [i64; 3]) -> Self {
-        let e = frame.tripod_e(c);
-        let s = crate::fixed::ONE as i128;
-        let [dm, du, dv] = frame.d.map(|x| T::from_i128(x as i128 * s));
+        let [dm, du, dv] = frame.scaled_d::<T>();
         TripodState {
-            e: e.map(T::from_i128),
+            e: frame.tripod_e_t::<T>(c),
             dm,
             du,
             dv,
@@ -51,8 +50,30 @@ impl<T: DecisionInt> TripodState<T> {
 
     /// One step: returns the local axis (0 = m, 1 = u, 2 = v) of the face
     /// the line leaves through, and updates the decision variables.
+    ///
+    /// Branch-free: the three sign tests become masks `m` (m step: `e_mu < 0`
+    /// and `e_mv < 0`), `u` (`e_mu ≥ 0` and `e_vu ≥ 0`) and `v` (the rest),
+    /// and each variable adds its table entry under its mask. Random slopes
+    /// make the branches of the decision tree unpredictable.
     #[inline(always)]
     pub fn step(&mut self) -> usize {
+        let [a, b, c] = self.e.map(T::neg_mask);
+        let m = a & b;
+        let u = !(a | c);
+        let v = !(m | u);
+        self.e[0] += (m & self.du) - (u & self.dm);
+        self.e[1] += (m & self.dv) - (v & self.dm);
+        self.e[2] += (v & self.du) - (u & self.dv);
+        (u.low_bits() & 1) | (v.low_bits() & 2)
+    }
+
+    /// [`TripodState::step`] as the decision tree (same decisions). Used
+    /// where the select form runs out of registers: the iterator's `fold`
+    /// also carries the world voxel and the caller's accumulator, and there
+    /// the branch-free form compiled to a loop with spills several times the
+    /// size of this one.
+    #[inline(always)]
+    pub(crate) fn step_tree(&mut self) -> usize {
         if self.e[0] < T::ZERO {
             if self.e[1] < T::ZERO {
                 self.e[0] += self.du;
@@ -88,6 +109,7 @@ pub(crate) enum AnyTripod {
 }
 
 impl AnyTripod {
+    #[inline]
     pub(crate) fn at(frame: &Frame, c: [i64; 3]) -> Self {
         if frame.wide {
             AnyTripod::Wide(TripodState::at(frame, c))
@@ -125,18 +147,26 @@ impl AnyTripod {
 pub struct Tripod6 {
     state: AnyTripod,
     cur: IVec3,
-    steps: [IVec3; 3],
+    /// World steps of local axes m, u, v (and a zero pad: a 4-entry table
+    /// needs no bounds check for a 2-bit index).
+    steps: [IVec3; 4],
     remaining: u64,
 }
 
 impl Tripod6 {
     /// The whole line of `seg`.
+    #[inline]
     pub fn new(seg: &Segment) -> Self {
-        let f = Frame::new(seg);
+        Self::from_frame(&Frame::new(seg))
+    }
+
+    #[inline]
+    pub(crate) fn from_frame(f: &Frame) -> Self {
+        let f = *f;
         Tripod6 {
             state: AnyTripod::at(&f, [0; 3]),
             cur: f.voxel_world([0; 3]),
-            steps: f.world_steps(),
+            steps: steps4(&f),
             remaining: f.tripod_steps() + 1,
         }
     }
@@ -149,17 +179,22 @@ impl Tripod6 {
             Some((c, n)) => Tripod6 {
                 state: AnyTripod::at(&f, c),
                 cur: f.voxel_world(c),
-                steps: f.world_steps(),
+                steps: steps4(&f),
                 remaining: n,
             },
             None => Tripod6 {
                 state: AnyTripod::at(&f, [0; 3]),
                 cur: f.voxel_world([0; 3]),
-                steps: f.world_steps(),
+                steps: steps4(&f),
                 remaining: 0,
             },
         }
     }
+}
+
+fn steps4(f: &Frame) -> [IVec3; 4] {
+    let [a, b, c] = f.world_steps();
+    [a, b, c, IVec3::ZERO]
 }
 
 impl Iterator for Tripod6 {
@@ -181,6 +216,34 @@ impl Iterator for Tripod6 {
     fn size_hint(&self) -> (usize, Option<usize>) {
         let n = usize::try_from(self.remaining).unwrap_or(usize::MAX);
         (n, usize::try_from(self.remaining).ok())
+    }
+
+    /// Internal iteration: one tight loop, the `i64`/`i128` choice made once.
+    #[inline]
+    fn fold<B, G: FnMut(B, IVec3) -> B>(self, init: B, mut g: G) -> B {
+        let mut acc = init;
+        if self.remaining == 0 {
+            return acc;
+        }
+        let mut cur = self.cur;
+        acc = g(acc, cur);
+        let steps = self.steps;
+        let n = self.remaining - 1;
+        match self.state {
+            AnyTripod::Narrow(mut s) => {
+                for _ in 0..n {
+                    cur += steps[s.step_tree()];
+                    acc = g(acc, cur);
+                }
+            }
+            AnyTripod::Wide(mut s) => {
+                for _ in 0..n {
+                    cur += steps[s.step_tree()];
+                    acc = g(acc, cur);
+                }
+            }
+        }
+        acc
     }
 }
 
@@ -209,8 +272,12 @@ mod tests {
             assert!(!f.wide);
             let mut a = TripodState::<i64>::at(&f, [0; 3]);
             let mut b = TripodState::<i128>::at(&f, [0; 3]);
+            let mut t = a;
             for _ in 0..f.tripod_steps() {
-                assert_eq!(a.step(), b.step());
+                let k = a.step();
+                assert_eq!(k, b.step());
+                assert_eq!(k, t.step_tree(), "select and tree forms differ");
+                assert_eq!(a.e, t.e);
             }
             if f.end[0] >= 1 {
                 let mut a = Mid26State::<i64>::at(&f, [0; 3]);

@@ -12,7 +12,7 @@ use crate::grid::{DenseGrid, Voxel};
 use crate::metric::Connectivity;
 
 use super::clip::{GridBox, tripod_range};
-use super::line18::Line18;
+use super::line18::Cursor18;
 use super::line26::{AnyMid, Cursor26, Mid26State, Plan26};
 use super::segment::{DecisionInt, Frame, Segment};
 use super::tripod6::{AnyTripod, TripodState};
@@ -47,7 +47,9 @@ impl WalkOutcome {
 /// Linear-index offsets of the three local axes and of the eight local move
 /// masks, for a segment's frame in a grid.
 pub(crate) struct Offsets {
-    pub axis: [isize; 3],
+    /// Offsets of local axes m, u, v (zero-padded: no bounds check for the
+    /// tripod's 2-bit step index).
+    pub axis: [isize; 4],
     pub mask: [isize; 8],
 }
 
@@ -61,7 +63,10 @@ impl Offsets {
                 .map(|k| axis[k])
                 .sum::<isize>()
         });
-        Offsets { axis, mask }
+        Offsets {
+            axis: [axis[0], axis[1], axis[2], 0],
+            mask,
+        }
     }
 }
 
@@ -71,7 +76,7 @@ fn run_tripod<T: DecisionInt, F: FnMut(usize) -> ControlFlow<()>>(
     mut s: TripodState<T>,
     mut idx: usize,
     n: u64,
-    off: &[isize; 3],
+    off: &[isize; 4],
     visit: &mut F,
 ) -> Result<u64, usize> {
     if visit(idx).is_break() {
@@ -166,6 +171,37 @@ fn walk_26<F: FnMut(usize) -> ControlFlow<()>>(
     Ok(total)
 }
 
+/// Last 26-line position whose tripod index (sum of local coordinates) is
+/// `≤ ts`, the index of the tripod voxel `c` where the line enters the box.
+/// O(1): the 26-line has one voxel per column and is a subsequence of the
+/// tripod path, so in the middle it is column `c_m`'s voxel or the one before;
+/// near the ends at most a prefix or suffix (≤ 6 voxels) is scanned.
+fn last_position_at_most(f: &Frame, plan: &Plan26, c: [i64; 3], ts: i64) -> u64 {
+    if ts == 0 {
+        return 0;
+    }
+    let sum_at = |p: u64| plan.voxel_at(f, p).iter().sum::<i64>();
+    let pre = plan.pre.len as u64;
+    let (cm, m) = (c[0], f.end[0]);
+    if (2..m).contains(&cm) {
+        // Column c_m's voxel; the one of column c_m − 1 precedes `c` on the
+        // tripod path (smaller m).
+        let p = pre + (cm - 1) as u64;
+        return if sum_at(p) <= ts { p } else { p - 1 };
+    }
+    // Column ≤ 1: within the prefix (position 0 has index 0); column ≥ M:
+    // within the suffix (its first voxel, column M − 1, precedes `c`).
+    let (lo, hi) = if cm <= 1 {
+        (0, pre)
+    } else {
+        (pre + plan.mid, plan.count() - 1)
+    };
+    (lo..=hi)
+        .rev()
+        .find(|&p| sum_at(p) <= ts)
+        .expect("a 26-line voxel precedes the entry voxel")
+}
+
 fn walk_18<F: FnMut(usize) -> ControlFlow<()>>(
     dims: crate::grid::Dims,
     off: &Offsets,
@@ -178,46 +214,85 @@ fn walk_18<F: FnMut(usize) -> ControlFlow<()>>(
     let Some((c, n)) = tripod_range(f, &GridBox::from_dims(dims)) else {
         return Ok(0);
     };
+    let plan = Plan26::new(f);
+    let m = &off.mask;
+    if c == [0; 3] && n == f.tripod_steps() + 1 {
+        // The whole line is in the grid: count down the 26-line's moves, no
+        // per-voxel test.
+        let idx = start_index(f.voxel_world([0; 3]));
+        if visit(idx).is_break() {
+            return Err(idx);
+        }
+        let mut cur = Cursor18::at(f, plan, 0);
+        let r = cur.drive(f, plan.count() - 1, (idx, 1u64), |(idx, k), mask, split| {
+            if split != 0 {
+                let i = idx.wrapping_add_signed(m[split]);
+                if visit(i).is_break() {
+                    return ControlFlow::Break((i, k));
+                }
+            }
+            let i = idx.wrapping_add_signed(m[mask]);
+            if visit(i).is_break() {
+                return ControlFlow::Break((i, k));
+            }
+            ControlFlow::Continue((i, k + 1 + u64::from(split != 0)))
+        });
+        return match r {
+            ControlFlow::Continue((_, k)) => Ok(k),
+            ControlFlow::Break((i, _)) => Err(i),
+        };
+    }
+    // Clipped: start at the last 26-line voxel before the entry and keep the
+    // voxels with tripod index in ts..=te.
     let ts: i64 = c.iter().sum();
     let te = ts + n as i64 - 1;
-    let plan = Plan26::new(f);
-    // Last 26-line position whose tripod index is ≤ ts (binary search: the
-    // index grows along the line).
-    let sum_at = |p: u64| plan.voxel_at(f, p).iter().sum::<i64>();
-    let (mut lo, mut hi) = (0u64, plan.count() - 1);
-    while lo < hi {
-        let mid = lo + (hi - lo).div_ceil(2);
-        if sum_at(mid) <= ts {
-            lo = mid
-        } else {
-            hi = mid - 1
+    let p = last_position_at_most(f, &plan, c, ts);
+    let v = plan.voxel_at(f, p);
+    let t0: i64 = v.iter().sum();
+    let idx = start_index(f.voxel_world(v));
+    let mut visited = 0u64;
+    if t0 >= ts {
+        visited += 1;
+        if visit(idx).is_break() {
+            return Err(idx);
         }
     }
-    let mut line = Line18::at_position(f, plan, lo);
-    let mut prev: Option<[i64; 3]> = None;
-    let mut idx = 0usize;
-    let mut visited = 0u64;
-    while let Some(v) = line.next_local() {
-        idx = match prev {
-            None => start_index(f.voxel_world(v)),
-            Some(p) => {
-                let mask = (0..3).fold(0usize, |m, k| m | (((v[k] - p[k]) as usize) << k));
-                idx.wrapping_add_signed(off.mask[mask])
-            }
-        };
-        prev = Some(v);
-        let t: i64 = v.iter().sum();
+    // `stopped`: the visitor's Break index; a Break with none = past te.
+    let mut stopped = None;
+    let mut one = |i: usize, t: i64| -> ControlFlow<()> {
         if t > te {
-            break;
+            return ControlFlow::Break(());
         }
         if t >= ts {
             visited += 1;
-            if visit(idx).is_break() {
-                return Err(idx);
+            if visit(i).is_break() {
+                stopped = Some(i);
+                return ControlFlow::Break(());
             }
         }
+        ControlFlow::Continue(())
+    };
+    let mut cur = Cursor18::at(f, plan, p);
+    let _ = cur.drive(
+        f,
+        plan.count() - 1 - p,
+        (idx, t0),
+        |(idx, t), mask, split| {
+            if split != 0 && one(idx.wrapping_add_signed(m[split]), t + 2).is_break() {
+                return ControlFlow::Break((idx, t));
+            }
+            let i = idx.wrapping_add_signed(m[mask]);
+            let t = t + mask.count_ones() as i64;
+            if one(i, t).is_break() {
+                return ControlFlow::Break((i, t));
+            }
+            ControlFlow::Continue((i, t))
+        },
+    );
+    match stopped {
+        Some(i) => Err(i),
+        None => Ok(visited),
     }
-    Ok(visited)
 }
 
 /// What a walk needs from a grid, copied out so that no borrow of the grid
