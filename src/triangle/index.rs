@@ -30,6 +30,26 @@
 //! the only wide product `j·τ < 2^124` (u128); the coordinates themselves are
 //! computed with wrapping i64 arithmetic, exact because the result fits.
 //!
+//! The three divisions of `point` (by the group length, `gc` and `Lc`) and
+//! those of `index_of` are by per-triangle constants, so they are done with
+//! precomputed reciprocals (Möller–Granlund, `recip.rs`): a few multiplications,
+//! the same cost at every triangle size (a hardware 64- or 128-bit `div` gets
+//! slower as the operands grow).
+//!
+//! # Enumeration
+//!
+//! An index range is walked from one `O(1)` locate with additions only: the
+//! next line's first point is the previous one plus `E`, minus one step along
+//! the line when `T` wraps past `Lc` (a carried remainder, no division).
+//! [`TriangleIndex::for_each_in_range_unordered`] visits the same range in no
+//! particular order: the whole skew lines inside it form a strip
+//! `S_lo ≤ S ≤ S_hi` (`2·S_hi < |D|`), whose kept points are the triangle's
+//! points in the strip and whose mirrored points are the triangle's points with
+//! `|D| − S_hi ≤ S ≤ |D| − S_lo, S + T < |D|` — two convex lattice polygons,
+//! scanned row by row like [`ScanlineLattice`](super::ScanlineLattice). On fat
+//! triangles, whose skew lines hold one to three points, this is several times
+//! cheaper per point than the ordered walk.
+//!
 //! The inverse follows the same route backwards: `j = S/gc`, `n = ⌊T/Lc⌋`,
 //! rank `j·gc + ⌈j/M⌉ + n` (`M = |D|/(gb·gc)` lines per group), and a rank
 //! `≥ H` belongs to the mirror point, index `k − 1 − rank`.
@@ -38,7 +58,7 @@
 //!
 //! Vertex coordinates must satisfy `|x|, |y| ≤ 2^30` ([`COORD_LIMIT`]). Then
 //! `|D| ≤ 2^62`, every count and index fits in `u64`, and all internal values
-//! are exact (i64 / u64, one u128 product per point at most).
+//! are exact (i64 / u64, one 64×64→128-bit product per point, no wide division).
 //!
 //! # Degenerate (collinear) triangles
 //!
@@ -335,15 +355,14 @@ impl Proper {
     }
 
     /// Emit rule: the point of the parallelogram at `(s, t)`, or its mirror.
-    /// Branch-free: on short skew lines the reflection is decided point by
-    /// point and is unpredictable, so a branch here mispredicts often.
     #[inline(always)]
     fn resolve(&self, s: u64, t: u64, p: LatticePoint) -> LatticePoint {
         let st = s + t;
-        let refl = (st > self.dabs) | ((st == self.dabs) & (s >= t));
-        let m = 0i64.wrapping_sub(refl as i64);
-        let q = sub(self.bc_sum, p);
-        [p[0] ^ ((p[0] ^ q[0]) & m), p[1] ^ ((p[1] ^ q[1]) & m)]
+        if st > self.dabs || (st == self.dabs && s >= t) {
+            sub(self.bc_sum, p)
+        } else {
+            p
+        }
     }
 
     #[inline(always)]
