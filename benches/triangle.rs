@@ -4,6 +4,9 @@
 //! Targets: skinny 45° triangles ≥ 100× faster indexed than scanline (time ∝
 //! points, not rows); fat triangles within 1.5× of scanline; `point(i)` flat
 //! from 10^2 to 10^12 points. Fixed-seed inputs, results consumed.
+//! `indexed` / `indexed_iter` walk the index order; `indexed_range_unordered`
+//! visits the same index range in no particular order (whole skew lines as
+//! row strips), which is what parallel enumeration by index ranges uses.
 
 use std::hint::black_box;
 
@@ -58,6 +61,18 @@ fn enumeration(c: &mut Criterion) {
         g.bench_with_input(BenchmarkId::new("indexed_iter", name), &t, |bch, t| {
             bch.iter(|| black_box(t).iter().fold(0i64, fold))
         });
+        g.bench_with_input(
+            BenchmarkId::new("indexed_range_unordered", name),
+            &t,
+            |bch, t| {
+                bch.iter(|| {
+                    let mut acc = 0i64;
+                    let t = black_box(t);
+                    t.for_each_in_range_unordered(0..t.len(), |p| acc = fold(acc, p));
+                    acc
+                })
+            },
+        );
         g.bench_with_input(
             BenchmarkId::new("adaptive_unordered", name),
             &t,

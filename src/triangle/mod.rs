@@ -32,6 +32,7 @@ mod interp;
 pub mod lattice_scan;
 pub mod mesh_index;
 pub mod raster;
+mod recip;
 mod render_mesh;
 pub mod scanline;
 

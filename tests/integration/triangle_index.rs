@@ -577,3 +577,174 @@ fn cli_outputs_and_errors() {
         assert!(!e.is_empty());
     }
 }
+
+/// Checks every walk of index range `a..b` against `point(i)`: the visitor,
+/// the iterator, and the visitor stopped early at a random point.
+fn check_range(t: &TriangleIndex, a: u64, b: u64, rng: &mut ChaCha8Rng, v: &Tri) {
+    let direct: Vec<_> = (a..b).map(|i| t.point(i).unwrap()).collect();
+    let mut vis = Vec::with_capacity(direct.len());
+    t.for_each_in_range(a..b, |p| vis.push(p));
+    assert_eq!(vis, direct, "visitor {v:?} {a}..{b}");
+    assert_eq!(
+        t.iter_range(a..b).collect::<Vec<_>>(),
+        direct,
+        "iter {v:?} {a}..{b}"
+    );
+    // The unordered range walk visits the same set, each point once.
+    let mut un = Vec::with_capacity(direct.len());
+    t.for_each_in_range_unordered(a..b, |p| un.push(p));
+    un.sort();
+    let mut sorted = direct.clone();
+    sorted.sort();
+    assert_eq!(un, sorted, "unordered {v:?} {a}..{b}");
+    if b > a {
+        let stop = rng.random_range(0..b - a);
+        let mut n = 0u64;
+        let r = t.try_for_each_in_range_unordered(a..b, |p| {
+            assert!(
+                sorted.binary_search(&p).is_ok(),
+                "unordered stray {v:?} {p:?}"
+            );
+            n += 1;
+            if n == stop + 1 {
+                std::ops::ControlFlow::Break(())
+            } else {
+                std::ops::ControlFlow::Continue(())
+            }
+        });
+        assert!(r.is_break() && n == stop + 1, "unordered early stop {v:?}");
+    }
+    if b > a {
+        let stop = rng.random_range(0..b - a);
+        let mut seen = Vec::new();
+        let r = t.try_for_each_in_range(a..b, |p| {
+            seen.push(p);
+            if seen.len() as u64 == stop + 1 {
+                std::ops::ControlFlow::Break(p)
+            } else {
+                std::ops::ControlFlow::Continue(())
+            }
+        });
+        assert_eq!(r, std::ops::ControlFlow::Break(direct[stop as usize]));
+        assert_eq!(seen, direct[..=stop as usize], "early stop {v:?} {a}..{b}");
+    }
+}
+
+/// A triangle with `a` at `o`, edge `ac` = `g` × a random primitive vector
+/// (so `gc = g`: lines of `g` or `g + 1` points) and a random `b`.
+fn tri_with_gc(rng: &mut ChaCha8Rng, o: LatticePoint, r: i64, g: i64) -> Tri {
+    loop {
+        let d = [rng.random_range(-r..=r), rng.random_range(-r..=r)];
+        if gcd(d[0] as i128, d[1] as i128) != 1 {
+            continue;
+        }
+        let b = [
+            o[0] + rng.random_range(-r * g..=r * g),
+            o[1] + rng.random_range(-r * g..=r * g),
+        ];
+        let v = [o, b, [o[0] + g * d[0], o[1] + g * d[1]]];
+        if cross(v[0], v[1], v[2]) != 0 {
+            return v;
+        }
+    }
+}
+
+/// The range walk (one O(1) locate, then additions only; a separate loop for
+/// `gc = 1`) equals `point(i)` for every `i` of random ranges: ranges starting
+/// and ending mid-line, at line starts, across the mirror half `H` and into
+/// the `(bm)` run, on fat, skinny, huge and collinear triangles with short
+/// (`gc = 1`, `2`, `3`) and long skew lines. The unordered range walk (whole
+/// lines scanned as two lattice polygons row by row) visits the same set.
+#[test]
+fn range_walks_equal_point_i() {
+    let mut rng = ChaCha8Rng::seed_from_u64(0x7a9e);
+    let l = COORD_LIMIT;
+    let mut tris: Vec<Tri> = Vec::new();
+    for n in 0..240 {
+        let g = [1, 1, 1, 2, 3, 7][n % 6];
+        let r = [3, 12, 60][n % 3];
+        let o = [rng.random_range(-99..99), 5];
+        tris.push(tri_with_gc(&mut rng, o, r, g));
+    }
+    for n in 0..30 {
+        // Fat triangles next to the coordinate limits (strip scans in i128).
+        let o = [[l - 60, l - 60], [-l + 60, l - 60], [-l + 60, -l + 60]][n % 3];
+        tris.push(rand_tri(&mut rng, 60, o));
+    }
+    for n in 0..40 {
+        // Fat triangles of about 10^4 points (the benchmark's shape).
+        let mut j = || rng.random_range(-3..=3);
+        let s = 70 + n;
+        tris.push([
+            [j(), j()],
+            [2 * s + j(), s / 3 + j()],
+            [s / 2 + j(), 2 * s + j()],
+        ]);
+    }
+    for _ in 0..20 {
+        let n = rng.random_range(100..5000);
+        tris.push([[0, 0], [n, n + 1], [n + 1 + rng.random_range(0..3), n + 2]]);
+        tris.push([[0, 0], [n, n + 1], [3, 3]]);
+    }
+    for _ in 0..60 {
+        let mut p = || [rng.random_range(-l..=l), rng.random_range(-l..=l)];
+        tris.push([p(), p(), p()]);
+        tris.push(tri_with_gc(
+            &mut rng,
+            [-l + (1 << 14) + 7, l - (1 << 14) - 9],
+            1 << 14,
+            1,
+        ));
+    }
+    tris.extend([
+        [[-l, -l], [l, -l], [-l, l]],
+        [[-l, -l], [l, l - 1], [l - 1, l]],
+        [[-l, l], [l, -l], [0, 0]],
+        [[0, 0], [6, 9], [4, 6]],
+        [[3, 3], [3, 3], [3, 3]],
+    ]);
+    for _ in 0..20 {
+        let d = [rng.random_range(-5..=5), rng.random_range(-5..=5)];
+        let k = rng.random_range(0..2000);
+        tris.push([[0, 0], [k * d[0], k * d[1]], [-d[0], -d[1]]]);
+    }
+    for v in &tris {
+        let t = TriangleIndex::new(*v).unwrap();
+        let k = t.len();
+        // Line starts: where consecutive points stop being one step apart
+        // along ac — found from point(i), independently of the walk.
+        let mut marks: Vec<u64> = vec![0, k, k / 2, (k / 2).saturating_sub(1), k / 2 + 1];
+        let probe = k.min(400);
+        let g = gcd(
+            v[2][0] as i128 - v[0][0] as i128,
+            v[2][1] as i128 - v[0][1] as i128,
+        ) as i64;
+        if g > 0 {
+            let cs = [(v[2][0] - v[0][0]) / g, (v[2][1] - v[0][1]) / g];
+            for i in 1..probe {
+                let (p, q) = (t.point(i - 1).unwrap(), t.point(i).unwrap());
+                if [q[0] - p[0], q[1] - p[1]] != cs && [p[0] - q[0], p[1] - q[1]] != cs {
+                    marks.push(i);
+                }
+            }
+        }
+        for _ in 0..30 {
+            marks.push(rng.random_range(0..=k));
+        }
+        marks.retain(|&m| m <= k);
+        for _ in 0..25 {
+            let a = marks[rng.random_range(0..marks.len())];
+            let a = (a + rng.random_range(0..2)).min(k);
+            let span = [1, 2, 3, 17, 300][rng.random_range(0..5)];
+            let b = if rng.random_bool(0.3) {
+                marks[rng.random_range(0..marks.len())].max(a).min(a + 3000)
+            } else {
+                (a + span).min(k)
+            };
+            check_range(&t, a, b, &mut rng, v);
+        }
+        if k <= 20_000 {
+            check_range(&t, 0, k, &mut rng, v);
+        }
+    }
+}
