@@ -105,8 +105,10 @@ pub fn measure_voxelization(v: &Voxelization, limit: MemoryLimit) -> Result<Erro
 /// grid.insert(Voxel::new(0, 0, 1));
 /// grid.insert(Voxel::new(3, 3, 3)); // far from the triangle
 /// let m = measure_voxel_set(&grid, [4, 4, 4], &mesh, &mesh, MemoryLimit::default()).unwrap();
-/// assert_eq!(m.reference_voxels, 10);
-/// assert_eq!((m.missing, m.extra, m.far_voxels), (9, 1, 1));
+/// // The 10 lattice points with i + j ≤ 3, plus (2,2), (3,1) and (1,3), whose
+/// // closed cubes the hypotenuse x + y = 3 touches at a corner.
+/// assert_eq!(m.reference_voxels, 13);
+/// assert_eq!((m.missing, m.extra, m.far_voxels), (12, 1, 1));
 /// assert_eq!(m.max_distance, 0.0);
 /// ```
 ///
