@@ -231,11 +231,18 @@ pub fn quantize_mesh(mesh: &Mesh, frame: &GridFrame, snap: bool) -> QuantizedMes
             }
         })
         .collect();
-    let mut tris = Vec::with_capacity(mesh.triangles.len());
+    let quantized: Vec<(SurfaceTriangle, bool)> = mesh
+        .triangles
+        .par_iter()
+        .map(|t| {
+            let tri = t.map(|i| q[i as usize]);
+            (tri, is_degenerate(&tri))
+        })
+        .collect();
+    let mut tris = Vec::with_capacity(quantized.len());
     let mut skipped = Vec::new();
-    for t in &mesh.triangles {
-        let tri = t.map(|i| q[i as usize]);
-        if is_degenerate(&tri) {
+    for (tri, degenerate) in quantized {
+        if degenerate {
             skipped.push(tri);
         } else {
             tris.push(tri);
@@ -500,11 +507,12 @@ fn ms(d: std::time::Duration) -> f64 {
 
 /// The surface driver's bricks (each exactly once) as a [`BrickGrid`].
 fn bricks_to_grid(bricks: Vec<([i32; 3], crate::voxelize::slab::BrickBits)>) -> BrickGrid {
-    let mut g = BrickGrid::with_capacity(bricks.len());
-    for (corner, bits) in &bricks {
-        g.or_brick(Voxel::from_array(*corner) >> 3, bits);
-    }
-    g
+    // Slabs are disjoint, so every brick comes exactly once.
+    BrickGrid::from_bricks(
+        bricks
+            .into_iter()
+            .map(|(corner, bits)| (Voxel::from_array(corner) >> 3, bits)),
+    )
 }
 
 /// The exact conservative set of reference triangles, restricted to the grid

@@ -645,6 +645,7 @@ impl SlabPlan {
     const SLABS_PER_THREAD: usize = 4;
 
     fn new(triangles: &[SurfaceTriangle], dims: [i32; 3]) -> Self {
+        use rayon::prelude::*;
         let nz = dims[2].max(1);
         // Voxel layers a triangle can write: every crossing voxel contains a
         // point of the triangle, so it lies within ±1/2 of the z extent.
@@ -671,10 +672,15 @@ impl SlabPlan {
             ];
             (n[0].abs() + n[1].abs() + n[2].abs()) / (2.0 * s2) + 8.0
         };
+        // Per-triangle z range and weight in parallel; the rest is a few
+        // passes over layers and slabs.
+        let ranges: Vec<((i32, i32), f64)> = triangles
+            .par_iter()
+            .map(|tri| (z_range(tri), weight(tri)))
+            .collect();
         let mut per_layer = vec![0f64; nz as usize + 1];
-        for tri in triangles {
-            let (lo, hi) = z_range(tri);
-            let w = weight(tri) / (hi - lo + 1) as f64;
+        for &((lo, hi), w) in &ranges {
+            let w = w / (hi - lo + 1) as f64;
             per_layer[lo as usize] += w;
             per_layer[hi as usize + 1] -= w;
         }
@@ -711,8 +717,7 @@ impl SlabPlan {
                 triangles: Vec::new(),
             })
             .collect();
-        for (t, tri) in triangles.iter().enumerate() {
-            let (lo, hi) = z_range(tri);
+        for (t, &((lo, hi), _)) in ranges.iter().enumerate() {
             let first = cuts.partition_point(|&c| c <= lo) - 1;
             for slab in &mut slabs[first..] {
                 if slab.z0 > hi {
