@@ -198,13 +198,20 @@ fn brick_key(bx: u32, by: u32, bz: u32) -> u64 {
     (u64::from(bz) << (2 * KEY_BITS)) | (u64::from(by) << KEY_BITS) | u64::from(bx)
 }
 
+/// Entries of [`ChunkBricks`]'s brick cache (a power of two).
+const CACHE: usize = 16;
+
 /// The bricks one chunk writes, in first-touch order.
 struct ChunkBricks {
     dims: [i32; 3],
     slots: HashMap<u64, u32, BuildHasherDefault<KeyHasher>>,
     bricks: Vec<(u64, BrickBits)>,
-    /// Last brick written: (key, slot); key `u64::MAX` = none.
-    last: (u64, u32),
+    /// Recently used bricks, direct-mapped by brick coordinates: the index's
+    /// order alternates between a point and its mirror in the triangle, so
+    /// consecutive voxels often toggle between a few bricks, and a hash
+    /// lookup per toggle cost more than the rest of the point.
+    /// `(key, slot)`; key `u64::MAX` = empty.
+    cache: [(u64, u32); CACHE],
 }
 
 impl ChunkBricks {
@@ -213,7 +220,7 @@ impl ChunkBricks {
             dims,
             slots: HashMap::default(),
             bricks: Vec::new(),
-            last: (u64::MAX, 0),
+            cache: [(u64::MAX, 0); CACHE],
         }
     }
 
@@ -225,22 +232,31 @@ impl ChunkBricks {
         let x = v.x.clamp(0, self.dims[0] - 1) as u32;
         let y = v.y.clamp(0, self.dims[1] - 1) as u32;
         let z = v.z.clamp(0, self.dims[2] - 1) as u32;
-        let key = brick_key(x >> 3, y >> 3, z >> 3);
-        if key != self.last.0 {
-            self.switch_brick(key);
+        let (bx, by, bz) = (x >> 3, y >> 3, z >> 3);
+        let key = brick_key(bx, by, bz);
+        // Face-adjacent bricks land in different cache entries.
+        let line = (bx
+            .wrapping_add(by.wrapping_mul(3))
+            .wrapping_add(bz.wrapping_mul(5))) as usize
+            & (CACHE - 1);
+        let mut slot = self.cache[line].1;
+        if self.cache[line].0 != key {
+            slot = self.slot_of(key);
+            self.cache[line] = (key, slot);
         }
-        let bits = &mut self.bricks[self.last.1 as usize].1;
+        let bits = &mut self.bricks[slot as usize].1;
         bits[(z & 7) as usize] |= 1u64 << ((x & 7) | ((y & 7) << 3));
     }
 
+    /// The arena slot of brick `key`, allocating it on first touch.
     #[inline(never)]
-    fn switch_brick(&mut self, key: u64) {
+    fn slot_of(&mut self, key: u64) -> u32 {
         let next = self.bricks.len() as u32;
         let slot = *self.slots.entry(key).or_insert(next);
         if slot == next {
             self.bricks.push((key, [0; 8]));
         }
-        self.last = (key, slot);
+        slot
     }
 }
 
