@@ -27,9 +27,12 @@
 //! voxels) take an `i128` path. Pairs whose projection has zero area are not
 //! indexed, as the kernel skips them.
 //!
+//! Triangles are indexed in batches of [`BATCH_TRIANGLES`], which bounds the
+//! set-up's memory; each batch is split evenly on its own.
+//!
 //! # Storage and determinism
 //! Each chunk collects its voxels in bricks keyed by brick coordinate (a
-//! hash table consulted only when the brick changes); the chunks' bricks are
+//! hash table behind a small direct-mapped cache); the chunks' bricks are
 //! then sorted by key and OR-merged. The result is the same set, in the same
 //! order (z, then y, then x brick), for any number of threads.
 
@@ -49,6 +52,11 @@ use crate::triangle::{MeshIndex, TriangleIndex};
 /// plane coefficients below 2^52.
 pub const MAX_SNAPPED_COORD: i64 = 1 << 23;
 
+/// Triangles indexed at a time: bounds the set-up's memory
+/// ([`BYTES_PER_PAIR`] per pair) while leaving each batch enough points to
+/// split evenly across threads.
+pub const BATCH_TRIANGLES: usize = 1 << 13;
+
 /// Points per chunk at least: below this a chunk's set-up (a brick table)
 /// outweighs its work.
 const MIN_CHUNK: u64 = 1 << 14;
@@ -62,7 +70,7 @@ const RECIP_SAFE: i128 = 1 << 50;
 #[derive(Clone, Copy, Debug)]
 struct Plane {
     family: LineFamily,
-    /// The triangle's index in the input.
+    /// The triangle's index in its batch.
     tri: u32,
     /// Vertex 0 of the pair, in family lattice coordinates.
     u0: i64,
@@ -289,16 +297,18 @@ pub fn voxelize_snapped(
     dims: [i32; 3],
     mode: SurfaceMode,
 ) -> Result<Vec<([i32; 3], BrickBits)>> {
-    voxelize_snapped_chunked(triangles, dims, mode, MIN_CHUNK)
+    voxelize_snapped_chunked(triangles, dims, mode, MIN_CHUNK, BATCH_TRIANGLES)
 }
 
-/// [`voxelize_snapped`] with chunks of at least `min_chunk` points (tests
-/// use small chunks to split small inputs among many chunks).
+/// [`voxelize_snapped`] with chunks of at least `min_chunk` points and
+/// batches of `batch` triangles (tests use small ones to split small inputs
+/// among many chunks and batches).
 fn voxelize_snapped_chunked(
     triangles: &[SurfaceTriangle],
     dims: [i32; 3],
     mode: SurfaceMode,
     min_chunk: u64,
+    batch: usize,
 ) -> Result<Vec<([i32; 3], BrickBits)>> {
     if dims.iter().any(|&d| !(1..=1 << 22).contains(&d)) {
         return Err(VoxkitError::invalid(format!(
@@ -316,10 +326,32 @@ fn voxelize_snapped_chunked(
         )));
     }
     let families = mode.families();
-    // Set-up per (triangle, family), in parallel: the planes first, then the
-    // indexing's O(bits) precomputation (the route's fixed cost per pair),
-    // each collected once at its exact size.
-    let planes: Vec<Plane> = triangles
+    let mut chunks = Vec::new();
+    let size = batch.max(1);
+    for (b, tris) in triangles.chunks(size).enumerate() {
+        let (mesh, planes) = index_batch(tris, b * size, families)?;
+        let planes = &planes;
+        chunks.extend(mesh.map_chunks_par(
+            min_chunk,
+            |_| ChunkBricks::new(dims),
+            |bricks, pair, [i, j]| bricks.set(planes[pair].voxel(i, j)),
+        ));
+    }
+    Ok(merge_chunks(chunks))
+}
+
+/// The [`MeshIndex`] of the `(triangle, family)` pairs of `batch` (whose
+/// first triangle is number `first` of the input) with non-zero projected
+/// area, and their planes in the same order.
+fn index_batch(
+    batch: &[SurfaceTriangle],
+    first: usize,
+    families: &[LineFamily],
+) -> Result<(MeshIndex, Vec<Plane>)> {
+    // In parallel: the planes first, then the indexing's O(bits)
+    // precomputation (the route's fixed cost per pair), each collected once
+    // at its exact size.
+    let planes: Vec<Plane> = batch
         .par_iter()
         .enumerate()
         .flat_map_iter(|(t, tri)| {
@@ -331,18 +363,13 @@ fn voxelize_snapped_chunked(
     let indices = planes
         .par_iter()
         .map(|pl| {
-            let p = project(&triangles[pl.tri as usize], pl.family);
-            TriangleIndex::new(p.map(|q| [q[0], q[1]]))
-                .map_err(|e| VoxkitError::invalid(format!("triangle {}: {e}", pl.tri)))
+            let p = project(&batch[pl.tri as usize], pl.family);
+            TriangleIndex::new(p.map(|q| [q[0], q[1]])).map_err(|e| {
+                VoxkitError::invalid(format!("triangle {}: {e}", first + pl.tri as usize))
+            })
         })
         .collect::<Result<Vec<_>>>()?;
-    let mesh = MeshIndex::from_indices(indices)?;
-    let chunks = mesh.map_chunks_par(
-        min_chunk,
-        |_| ChunkBricks::new(dims),
-        |bricks, pair, [i, j]| bricks.set(planes[pair].voxel(i, j)),
-    );
-    Ok(merge_chunks(chunks))
+    Ok((MeshIndex::from_indices(indices)?, planes))
 }
 
 /// Sorts the chunks' bricks by key and ORs duplicates: the union, in key
@@ -402,8 +429,8 @@ mod tests {
     fn assert_same(tris: &[SurfaceTriangle], dims: [i32; 3], what: &str) {
         for mode in MODES {
             let want = by_lines(tris, dims, mode);
-            for min_chunk in [1, 97, MIN_CHUNK] {
-                let got = voxelize_snapped_chunked(tris, dims, mode, min_chunk).unwrap();
+            for (min_chunk, batch) in [(1, 5), (97, 64), (MIN_CHUNK, BATCH_TRIANGLES)] {
+                let got = voxelize_snapped_chunked(tris, dims, mode, min_chunk, batch).unwrap();
                 assert_eq!(
                     count(&got),
                     count(&want),
@@ -514,9 +541,9 @@ mod tests {
                     .num_threads(threads)
                     .build()
                     .unwrap();
-                for min_chunk in [64, MIN_CHUNK] {
+                for (min_chunk, batch) in [(64, 500), (MIN_CHUNK, BATCH_TRIANGLES)] {
                     let got = pool
-                        .install(|| voxelize_snapped_chunked(&tris, dims, mode, min_chunk))
+                        .install(|| voxelize_snapped_chunked(&tris, dims, mode, min_chunk, batch))
                         .unwrap();
                     assert_eq!(got, want, "{mode:?} {threads} threads, chunk {min_chunk}");
                 }
