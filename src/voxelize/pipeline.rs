@@ -379,14 +379,16 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
     );
     let mut estimated = estimate_bytes(triangles, segments.len(), frame.dims, opts.mode);
     if opts.snap && opts.mode != VoxelizeMode::Conservative {
-        // The Kahan–Kelsen set-up: at most one indexed pair per triangle and
-        // family (4 families for thick, 3 for thin and solid).
+        // The Kahan–Kelsen set-up of one batch: at most one indexed pair per
+        // triangle and family (4 families for thick, 3 for thin and solid).
+        use crate::voxelize::snapped::{BATCH_TRIANGLES, BYTES_PER_PAIR};
         let families = if opts.mode == VoxelizeMode::Thick {
             4
         } else {
             3
         };
-        estimated += families * triangles.len() as u64 * crate::voxelize::snapped::BYTES_PER_PAIR;
+        let batch = triangles.len().min(BATCH_TRIANGLES) as u64;
+        estimated += families * batch * BYTES_PER_PAIR;
     }
     opts.limit.check(
         &format!(
