@@ -530,6 +530,27 @@ mod tests {
     }
 
     #[test]
+    fn equals_line_kernel_on_snapped_real_meshes() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/meshes/obj");
+        for (name, r) in [
+            ("stanford-bunny.obj", 200),
+            ("spot.obj", 160),
+            ("teapot.obj", 96),
+        ] {
+            let mesh = Mesh::load(&dir.join(name)).unwrap();
+            let frame = fit_frame(mesh.bounds(), r).unwrap();
+            let q = quantize_mesh(&mesh, &frame, true);
+            let dims = frame.dims.map(|d| d as i32);
+            for mode in MODES {
+                let want = by_lines(&q.triangles, dims, mode);
+                let got = voxelize_snapped(&q.triangles, dims, mode).unwrap();
+                assert!(count(&want) > 10_000, "{name}");
+                assert_eq!(got, want, "{name} r {r} {mode:?}");
+            }
+        }
+    }
+
+    #[test]
     fn independent_of_thread_count() {
         let mut rng = ChaCha8Rng::seed_from_u64(34);
         let dims = [90, 80, 70];
