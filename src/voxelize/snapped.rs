@@ -375,12 +375,23 @@ fn index_batch(
 /// Sorts the chunks' bricks by key and ORs duplicates: the union, in key
 /// order, whatever the chunking.
 fn merge_chunks(chunks: Vec<ChunkBricks>) -> Vec<([i32; 3], BrickBits)> {
-    let mut all: Vec<(u64, BrickBits)> = chunks.into_iter().flat_map(|c| c.bricks).collect();
-    all.par_sort_unstable_by_key(|b| b.0);
-    let mut out: Vec<([i32; 3], BrickBits)> = Vec::with_capacity(all.len());
+    // Sort 16-byte references rather than the 72-byte bricks themselves.
+    let mut order: Vec<(u64, u32, u32)> = chunks
+        .iter()
+        .enumerate()
+        .flat_map(|(c, ch)| {
+            ch.bricks
+                .iter()
+                .enumerate()
+                .map(move |(s, b)| (b.0, c as u32, s as u32))
+        })
+        .collect();
+    order.par_sort_unstable();
+    let mut out: Vec<([i32; 3], BrickBits)> = Vec::with_capacity(order.len());
     let mut last_key = u64::MAX;
     let mask = (1u64 << KEY_BITS) - 1;
-    for (key, bits) in all {
+    for (key, c, s) in order {
+        let bits = &chunks[c as usize].bricks[s as usize].1;
         if key == last_key {
             let merged = &mut out.last_mut().expect("a brick with this key was pushed").1;
             for (m, b) in merged.iter_mut().zip(bits) {
@@ -389,7 +400,7 @@ fn merge_chunks(chunks: Vec<ChunkBricks>) -> Vec<([i32; 3], BrickBits)> {
         } else {
             let corner = [key & mask, (key >> KEY_BITS) & mask, key >> (2 * KEY_BITS)]
                 .map(|c| c as i32 * BRICK);
-            out.push((corner, bits));
+            out.push((corner, *bits));
             last_key = key;
         }
     }
