@@ -13,6 +13,7 @@
 //! | [`pipeline`] | mesh → brick grid: fitting, quantization, memory estimate, the four modes, polylines |
 //! | [`measure`] | error measures against the exact conservative set: missing/extra, distances, tunnels |
 //! | [`shapes`] | closed test meshes (UV sphere, torus, box) with rotations and offsets |
+//! | [`snapped`] | thin/thick surfaces for lattice-snapped vertices by Kahan–Kelsen indexing, split evenly by a prefix sum |
 //!
 //! Meshes are triangle soups in grid space with fixed-point vertices
 //! ([`conservative::FixedTriangle`], 2^-20 voxel, `|x| ≤ 2^30` voxels). Voxel
@@ -24,5 +25,6 @@ pub mod measure;
 pub mod pipeline;
 pub mod shapes;
 pub mod slab;
+pub mod snapped;
 pub mod solid;
 pub mod surface;

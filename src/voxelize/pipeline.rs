@@ -13,7 +13,11 @@
 //!    the surface;
 //! 3. **estimate memory** and refuse with [`VoxkitError::Limits`] before
 //!    allocating anything large (see [`estimate_bytes`]);
-//! 4. run the **mode** ([`VoxelizeMode`]) into a sparse [`BrickGrid`].
+//! 4. run the **mode** ([`VoxelizeMode`]) into a sparse [`BrickGrid`]. With
+//!    [`VoxelizeOptions::snap`], the thin and thick surfaces (and solid's
+//!    thin surface) take the Kahan–Kelsen route of [`crate::voxelize::snapped`]:
+//!    the same voxels as the crossing kernel, enumerated per projected
+//!    lattice triangle and split evenly across threads.
 //!
 //! # Polylines
 //! Every polyline segment `[a, b]` is voxelized by the line engine with the
@@ -54,6 +58,7 @@ use crate::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
 use crate::line::{Line26, Segment, Tripod6};
 use crate::mesh::{Mesh, fit_frame, fitted_voxel};
 use crate::voxelize::conservative::{FixedTriangle, conservative_voxels};
+use crate::voxelize::snapped::voxelize_snapped;
 use crate::voxelize::solid::solid_voxels_voting;
 use crate::voxelize::surface::{
     SurfaceMode, SurfaceTriangle, VOXEL_FRAC_BITS, VOXEL_ONE, voxelize_surface,
@@ -431,7 +436,19 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
         &quantized.degenerate,
         &quantized.segments,
     );
-    let estimated = estimate_bytes(triangles, segments.len(), frame.dims, opts.mode);
+    let mut estimated = estimate_bytes(triangles, segments.len(), frame.dims, opts.mode);
+    if opts.snap && opts.mode != VoxelizeMode::Conservative {
+        // The Kahan–Kelsen set-up of one batch: at most one indexed pair per
+        // triangle and family (4 families for thick, 3 for thin and solid).
+        use crate::voxelize::snapped::{BATCH_TRIANGLES, BYTES_PER_PAIR};
+        let families = if opts.mode == VoxelizeMode::Thick {
+            4
+        } else {
+            3
+        };
+        let batch = triangles.len().min(BATCH_TRIANGLES) as u64;
+        estimated += families * batch * BYTES_PER_PAIR;
+    }
     opts.limit.check(
         &format!(
             "voxelizing {} triangles into {:?} ({})",
@@ -454,7 +471,7 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
             } else {
                 SurfaceMode::Thick
             };
-            bricks_to_grid(voxelize_surface(triangles, dims_i, surface))
+            bricks_to_grid(surface_bricks(triangles, dims_i, surface, opts.snap)?)
         }
         VoxelizeMode::Conservative => {
             report("conservative");
@@ -462,7 +479,12 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
         }
         VoxelizeMode::Solid => {
             report("surface");
-            let mut g = bricks_to_grid(voxelize_surface(triangles, dims_i, SurfaceMode::Thin));
+            let mut g = bricks_to_grid(surface_bricks(
+                triangles,
+                dims_i,
+                SurfaceMode::Thin,
+                opts.snap,
+            )?);
             report("solid");
             let fixed: Vec<FixedTriangle> = triangles.par_iter().map(to_reference).collect();
             let inside = solid_voxels_voting(&fixed, frame.dims, opts.limit)?;
@@ -499,6 +521,24 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
         exact: opts.snap.then(|| quantize_mesh(mesh, &frame, false)),
         mesh: quantized,
     })
+}
+
+/// The surface of `mode`: for snapped vertices by Kahan–Kelsen indexing
+/// ([`voxelize_snapped`], work split evenly by a prefix sum over the
+/// projected triangles' point counts), otherwise by the lattice-line
+/// crossing kernel ([`voxelize_surface`]). Both give the same voxels on
+/// snapped input.
+fn surface_bricks(
+    triangles: &[SurfaceTriangle],
+    dims: [i32; 3],
+    mode: SurfaceMode,
+    snap: bool,
+) -> Result<Vec<([i32; 3], crate::voxelize::slab::BrickBits)>> {
+    if snap {
+        voxelize_snapped(triangles, dims, mode)
+    } else {
+        Ok(voxelize_surface(triangles, dims, mode))
+    }
 }
 
 fn ms(d: std::time::Duration) -> f64 {
