@@ -1,11 +1,11 @@
-//! `voxkit voxelize MESH -r N -o OUT [--mode thin|thick|conservative|solid] [--snap] [--json] [--measure] [--force] [--max-memory MIB] [-q]`
+//! `voxkit voxelize MESH -r N -o OUT [--mode thin|thick|conservative|solid] [--snap [--kahan-kelsen]] [--json] [--measure] [--force] [--max-memory MIB] [-q]`
 //!
 //! Loads an OBJ / glTF mesh, voxelizes it ([`voxelize_mesh`]) and writes a
 //! `.binvox`, `.vox`, `.npy` or `.nrrd` file (by extension). An existing
 //! output is refused without `--force` (exit 2, checked before any work).
 //!
 //! `--json` prints one line with the keys `mesh`, `mode`, `resolution`,
-//! `snap`, `dims`, `triangles`, `skipped_triangles`, `segments`, `voxels`,
+//! `snap`, `kahan_kelsen`, `dims`, `triangles`, `skipped_triangles`, `segments`, `voxels`,
 //! `bricks`, `estimated_mib`, `load_ms`, `quantize_ms`, `kernel_ms`,
 //! `polyline_ms`, `voxelize_ms` (the
 //! whole voxelization, quantization included), `write_ms`, `peak_rss_mib`
@@ -66,9 +66,13 @@ pub struct VoxelizeArgs {
     /// Which voxel set.
     #[arg(long, value_enum, default_value = "thin")]
     pub mode: ModeArg,
-    /// Snap vertices to the voxel lattice (faster, less exact).
+    /// Snap vertices to the voxel lattice (less exact).
     #[arg(long)]
     pub snap: bool,
+    /// With --snap: enumerate lattice points by Kahan–Kelsen indexing (same
+    /// voxels; evens out meshes with a few huge triangles).
+    #[arg(long, requires = "snap")]
+    pub kahan_kelsen: bool,
     /// Print one line of JSON.
     #[arg(long)]
     pub json: bool,
@@ -148,6 +152,7 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
     });
     let mut opts = VoxelizeOptions::new(args.resolution, args.mode.into());
     opts.snap = args.snap;
+    opts.kahan_kelsen = args.kahan_kelsen;
     opts.limit = limit;
     if let Some(b) = &bar {
         let b = b.clone();
@@ -193,6 +198,7 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "mode": VoxelizeMode::from(args.mode).name(),
         "resolution": args.resolution,
         "snap": args.snap,
+        "kahan_kelsen": args.kahan_kelsen,
         "dims": v.frame.dims,
         "triangles": s.triangles,
         "skipped_triangles": s.skipped_triangles,

@@ -14,10 +14,15 @@
 //! 3. **estimate memory** and refuse with [`VoxkitError::Limits`] before
 //!    allocating anything large (see [`estimate_bytes`]);
 //! 4. run the **mode** ([`VoxelizeMode`]) into a sparse [`BrickGrid`]. With
-//!    [`VoxelizeOptions::snap`], the thin and thick surfaces (and solid's
-//!    thin surface) take the Kahan–Kelsen route of [`crate::voxelize::snapped`]:
-//!    the same voxels as the crossing kernel, enumerated per projected
-//!    lattice triangle and split evenly across threads.
+//!    [`VoxelizeOptions::snap`] and [`VoxelizeOptions::kahan_kelsen`], the
+//!    thin and thick surfaces (and solid's thin surface) take the
+//!    Kahan–Kelsen route of [`crate::voxelize::snapped`]: the same voxels as
+//!    the crossing kernel, enumerated per projected lattice triangle and
+//!    split evenly across threads by a prefix sum over point counts. It is
+//!    not the default because on meshes of many small triangles it is 2–3×
+//!    slower than the crossing kernel (per-triangle index set-up against
+//!    10–20 points per projected triangle); it pays where a few huge
+//!    triangles would otherwise leave a thread with most of the work.
 //!
 //! # Polylines
 //! Every polyline segment `[a, b]` is voxelized by the line engine with the
@@ -120,6 +125,10 @@ pub struct VoxelizeOptions {
     pub mode: VoxelizeMode,
     /// Round vertices to the integer voxel lattice instead of 1/256 voxel.
     pub snap: bool,
+    /// With `snap`: enumerate the projected triangles' lattice points by
+    /// Kahan–Kelsen indexing ([`crate::voxelize::snapped`]) instead of the
+    /// crossing kernel. Same voxels; see the module docs for when it pays.
+    pub kahan_kelsen: bool,
     /// Cap on the estimated memory of the run.
     pub limit: MemoryLimit,
     /// Optional progress callback.
@@ -132,6 +141,7 @@ impl std::fmt::Debug for VoxelizeOptions {
             .field("resolution", &self.resolution)
             .field("mode", &self.mode)
             .field("snap", &self.snap)
+            .field("kahan_kelsen", &self.kahan_kelsen)
             .field("limit", &self.limit)
             .field("progress", &self.progress.is_some())
             .finish()
@@ -146,6 +156,7 @@ impl VoxelizeOptions {
             resolution,
             mode,
             snap: false,
+            kahan_kelsen: false,
             limit: MemoryLimit::DEFAULT,
             progress: None,
         }
@@ -437,7 +448,8 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
         &quantized.segments,
     );
     let mut estimated = estimate_bytes(triangles, segments.len(), frame.dims, opts.mode);
-    if opts.snap && opts.mode != VoxelizeMode::Conservative {
+    let kk = opts.snap && opts.kahan_kelsen;
+    if kk && opts.mode != VoxelizeMode::Conservative {
         // The Kahan–Kelsen set-up of one batch: at most one indexed pair per
         // triangle and family (4 families for thick, 3 for thin and solid).
         use crate::voxelize::snapped::{BATCH_TRIANGLES, BYTES_PER_PAIR};
@@ -471,7 +483,7 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
             } else {
                 SurfaceMode::Thick
             };
-            bricks_to_grid(surface_bricks(triangles, dims_i, surface, opts.snap)?)
+            bricks_to_grid(surface_bricks(triangles, dims_i, surface, kk)?)
         }
         VoxelizeMode::Conservative => {
             report("conservative");
@@ -479,12 +491,7 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
         }
         VoxelizeMode::Solid => {
             report("surface");
-            let mut g = bricks_to_grid(surface_bricks(
-                triangles,
-                dims_i,
-                SurfaceMode::Thin,
-                opts.snap,
-            )?);
+            let mut g = bricks_to_grid(surface_bricks(triangles, dims_i, SurfaceMode::Thin, kk)?);
             report("solid");
             let fixed: Vec<FixedTriangle> = triangles.par_iter().map(to_reference).collect();
             let inside = solid_voxels_voting(&fixed, frame.dims, opts.limit)?;
@@ -523,18 +530,18 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
     })
 }
 
-/// The surface of `mode`: for snapped vertices by Kahan–Kelsen indexing
-/// ([`voxelize_snapped`], work split evenly by a prefix sum over the
-/// projected triangles' point counts), otherwise by the lattice-line
-/// crossing kernel ([`voxelize_surface`]). Both give the same voxels on
-/// snapped input.
+/// The surface of `mode`: with `kahan_kelsen` (snapped vertices only) by
+/// Kahan–Kelsen indexing ([`voxelize_snapped`], work split evenly by a
+/// prefix sum over the projected triangles' point counts), otherwise by the
+/// lattice-line crossing kernel ([`voxelize_surface`]). Both give the same
+/// voxels on snapped input.
 fn surface_bricks(
     triangles: &[SurfaceTriangle],
     dims: [i32; 3],
     mode: SurfaceMode,
-    snap: bool,
+    kahan_kelsen: bool,
 ) -> Result<Vec<([i32; 3], crate::voxelize::slab::BrickBits)>> {
-    if snap {
+    if kahan_kelsen {
         voxelize_snapped(triangles, dims, mode)
     } else {
         Ok(voxelize_surface(triangles, dims, mode))

@@ -740,3 +740,48 @@ fn cli_measure_reads_index_lists_and_voxel_files() {
     assert_eq!(j["extra"], serde_json::json!(0));
     assert_eq!(j["tunnel6"], serde_json::json!(false));
 }
+
+#[test]
+fn kahan_kelsen_route_equals_the_crossing_kernel_on_snapped_input() {
+    let spot = Mesh::load(&data("data/meshes/obj/spot.obj")).unwrap();
+    for mode in [VoxelizeMode::Thin, VoxelizeMode::Thick, VoxelizeMode::Solid] {
+        let mut o = VoxelizeOptions::new(48, mode);
+        o.snap = true;
+        let kernel = voxelize_mesh(&spot, &o).unwrap();
+        o.kahan_kelsen = true;
+        let kk = voxelize_mesh(&spot, &o).unwrap();
+        assert_eq!(kk.grid, kernel.grid, "{mode:?}");
+        assert!(kk.grid.count() > 1000);
+    }
+    // The CLI flag needs --snap and gives the same voxel count.
+    let out = tmp("spot_kk.binvox");
+    let (spot, outs) = (data("data/meshes/obj/spot.obj"), out.to_str().unwrap());
+    let args = [
+        "voxelize",
+        spot.to_str().unwrap(),
+        "-r",
+        "40",
+        "-o",
+        outs,
+        "--force",
+        "--json",
+    ];
+    let o = voxkit(&[&args[..], &["--kahan-kelsen"]].concat());
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "--kahan-kelsen without --snap is refused"
+    );
+    let o = voxkit(&[&args[..], &["--snap", "--kahan-kelsen"]].concat());
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let kk: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(kk["kahan_kelsen"], serde_json::json!(true));
+    let o = voxkit(&[&args[..], &["--snap"]].concat());
+    let plain: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(kk["voxels"], plain["voxels"]);
+}
