@@ -247,22 +247,20 @@ pub fn quantize_mesh(mesh: &Mesh, frame: &GridFrame, snap: bool) -> QuantizedMes
             }
         })
         .collect();
-    let quantized: Vec<(SurfaceTriangle, bool)> = mesh
+    let mut tris: Vec<SurfaceTriangle> = mesh
         .triangles
         .par_iter()
-        .map(|t| {
-            let tri = t.map(|i| q[i as usize]);
-            (tri, is_degenerate(&tri))
-        })
+        .map(|t| t.map(|i| q[i as usize]))
         .collect();
-    let mut tris = Vec::with_capacity(quantized.len());
-    let mut skipped = Vec::new();
-    for (tri, degenerate) in quantized {
-        if degenerate {
-            skipped.push(tri);
-        } else {
-            tris.push(tri);
-        }
+    let degenerate: Vec<bool> = tris.par_iter().map(is_degenerate).collect();
+    let skipped: Vec<SurfaceTriangle> = tris
+        .iter()
+        .zip(&degenerate)
+        .filter_map(|(t, &d)| d.then_some(*t))
+        .collect();
+    if !skipped.is_empty() {
+        let mut flags = degenerate.iter();
+        tris.retain(|_| !flags.next().copied().unwrap_or(false));
     }
     let segments = mesh
         .polylines
