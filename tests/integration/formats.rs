@@ -475,3 +475,67 @@ fn bad_voxel_files_give_typed_errors() {
         other => panic!("{other:?}"),
     }
 }
+
+/// Places every model of a .vox file as MagicaVoxel does, read by an
+/// independent parser (`dot_vox`): walk the scene graph from the root
+/// transform, add each transform's `_t`, and put model voxel `l` at
+/// `_t + l − size / 2` (integer division: the model's centre pivot).
+fn vox_scene_voxels(bytes: &[u8]) -> Vec<[i32; 3]> {
+    use dot_vox::SceneNode;
+    let data = dot_vox::load_bytes(bytes).expect("dot_vox parses the file");
+    fn walk(data: &dot_vox::DotVoxData, node: u32, t: [i32; 3], out: &mut Vec<[i32; 3]>) {
+        match &data.scenes[node as usize] {
+            SceneNode::Transform { frames, child, .. } => {
+                let mut t = t;
+                if let Some(s) = frames.first().and_then(|f| f.attributes.get("_t")) {
+                    let d: Vec<i32> = s.split(' ').map(|x| x.parse().unwrap()).collect();
+                    t = [t[0] + d[0], t[1] + d[1], t[2] + d[2]];
+                }
+                walk(data, *child, t, out);
+            }
+            SceneNode::Group { children, .. } => {
+                for &c in children {
+                    walk(data, c, t, out);
+                }
+            }
+            SceneNode::Shape { models, .. } => {
+                for m in models {
+                    let model = &data.models[m.model_id as usize];
+                    let half = [model.size.x, model.size.y, model.size.z].map(|s| (s / 2) as i32);
+                    for v in &model.voxels {
+                        out.push([
+                            t[0] + v.x as i32 - half[0],
+                            t[1] + v.y as i32 - half[1],
+                            t[2] + v.z as i32 - half[2],
+                        ]);
+                    }
+                }
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(&data, 0, [0; 3], &mut out);
+    out.sort();
+    out
+}
+
+#[test]
+fn vox_files_load_in_an_independent_reader_with_every_voxel_in_place() {
+    let dir = temp_dir("dotvox");
+    let mut rng = ChaCha8Rng::seed_from_u64(0xD07);
+    // One model, several models along x, and several along all three axes.
+    for (dims, n) in [
+        ([40, 30, 20], 500),
+        ([300, 17, 9], 2_000),
+        ([520, 270, 300], 6_000),
+    ] {
+        let grid = random_grid(&mut rng, dims, n);
+        let frame = GridFrame::new(DVec3::new(1.5, -2.0, 0.25), 0.5, dims);
+        let path = dir.join(format!("{}x{}x{}.vox", dims[0], dims[1], dims[2]));
+        write_voxels(&path, &grid, &frame, true).unwrap();
+        let placed = vox_scene_voxels(&std::fs::read(&path).unwrap());
+        let mut want: Vec<[i32; 3]> = grid.iter().map(|v| v.to_array()).collect();
+        want.sort();
+        assert_eq!(placed, want, "{dims:?}");
+    }
+}
