@@ -438,8 +438,16 @@ impl BrickGrid {
     }
 }
 
-/// Local coordinates of the set bits of a mask, x fastest.
-fn mask_voxels(mask: BrickMask) -> impl Iterator<Item = Voxel> {
+/// Local coordinates (each in `0..8`) of the set bits of a brick mask, x
+/// fastest, then y, then z.
+///
+/// ```
+/// use voxkit::grid::brick::mask_voxels;
+/// let mut m = [0u64; 8];
+/// m[2] = 1 << (3 + 8 * 5); // voxel (3, 5, 2)
+/// assert_eq!(mask_voxels(m).map(|v| v.to_array()).collect::<Vec<_>>(), vec![[3, 5, 2]]);
+/// ```
+pub fn mask_voxels(mask: BrickMask) -> impl Iterator<Item = Voxel> {
     (0..8).flat_map(move |z| {
         let mut bits = mask[z];
         std::iter::from_fn(move || {

@@ -26,6 +26,7 @@ use glam::DVec3;
 
 use super::voxels::check_sparse_budget;
 use crate::error::{Result, VoxkitError};
+use crate::grid::brick::mask_voxels;
 use crate::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
 
 /// Writes `grid` (voxels inside `frame.dims`, checked by the caller) as binvox.
@@ -66,14 +67,9 @@ fn write_runs(w: &mut dyn Write, grid: &BrickGrid, d: u64) -> Result<()> {
         indices.clear();
         for (k, m) in slab {
             let base = *k * 8;
-            for (z, &word) in m.iter().enumerate() {
-                let mut bits = word;
-                while bits != 0 {
-                    let b = bits.trailing_zeros() as i32;
-                    bits &= bits - 1;
-                    let v = base + Voxel::new(b & 7, b >> 3, z as i32);
-                    indices.push((v.x as u64 * d + v.z as u64) * d + v.y as u64);
-                }
+            for l in mask_voxels(*m) {
+                let v = base + l;
+                indices.push((v.x as u64 * d + v.z as u64) * d + v.y as u64);
             }
         }
         indices.sort_unstable();

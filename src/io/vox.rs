@@ -27,8 +27,8 @@ use std::io::Write;
 use glam::{DVec3, IVec3};
 
 use crate::error::{Result, VoxkitError};
-use crate::grid::brick::BRICK_EDGE;
-use crate::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
+use crate::grid::brick::{BRICK_EDGE, mask_voxels};
+use crate::grid::{BrickGrid, GridFrame, MemoryLimit};
 
 /// Maximum model extent (coordinates are bytes).
 pub const MAX_MODEL: usize = 256;
@@ -64,14 +64,9 @@ pub fn write(w: &mut dyn Write, grid: &BrickGrid, frame: &GridFrame) -> Result<(
         let block = k.div_euclid(IVec3::splat(per_block));
         let list = blocks.entry(block).or_default();
         let base = k * BRICK_EDGE - block * MAX_MODEL as i32;
-        for (z, &word) in m.iter().enumerate() {
-            let mut bits = word;
-            while bits != 0 {
-                let b = bits.trailing_zeros() as i32;
-                bits &= bits - 1;
-                let l = base + Voxel::new(b & 7, b >> 3, z as i32);
-                list.push([l.x as u8, l.y as u8, l.z as u8, 1]);
-            }
+        for l in mask_voxels(m) {
+            let l = base + l;
+            list.push([l.x as u8, l.y as u8, l.z as u8, 1]);
         }
     }
     let mut order: Vec<IVec3> = blocks.keys().copied().collect();

@@ -10,7 +10,7 @@
 use std::path::Path;
 
 use crate::error::{Result, VoxkitError};
-use crate::grid::brick::{BRICK_EDGE, BrickMask};
+use crate::grid::brick::{BRICK_EDGE, BrickMask, mask_voxels};
 use crate::grid::{BrickGrid, Dims, GridFrame, MemoryLimit, Voxel};
 
 /// A voxel file format, chosen by extension.
@@ -167,17 +167,12 @@ pub(crate) fn for_each_slab(
         while next < by_slab.len() && by_slab[next].0[slow] as usize == s {
             let (k, m) = &by_slab[next];
             let base = *k * BRICK_EDGE;
-            for (z, &word) in m.iter().enumerate() {
-                let mut bits = word;
-                while bits != 0 {
-                    let b = bits.trailing_zeros() as i32;
-                    bits &= bits - 1;
-                    let v = base + Voxel::new(b & 7, b >> 3, z as i32);
-                    let i = (v[slow] as usize - 8 * s) * plane
-                        + v[mid] as usize * n_fast
-                        + v[fast] as usize;
-                    slab[i] = 1;
-                }
+            for l in mask_voxels(*m) {
+                let v = base + l;
+                let i = (v[slow] as usize - 8 * s) * plane
+                    + v[mid] as usize * n_fast
+                    + v[fast] as usize;
+                slab[i] = 1;
             }
             next += 1;
         }

@@ -79,17 +79,7 @@ impl SlabBricks {
         if z < self.z0 || z >= self.z1 {
             return;
         }
-        let z = z - self.z0;
-        // All three are non-negative here: shifts and masks, not signed division.
-        let (bx, by, bz) = ((x >> 3) as usize, (y >> 3) as usize, (z >> 3) as usize);
-        let cell = bx + self.nb[0] * (by + self.nb[1] * bz);
-        // Consecutive crossings mostly share a brick: the table and the
-        // arena's growth are off the hot path.
-        if cell != self.last.0 {
-            self.switch_brick(cell, [bx, by, bz]);
-        }
-        let bits = &mut self.bricks[self.last.1 as usize - 1].1;
-        bits[(z & 7) as usize] |= 1u64 << ((x & 7) | ((y & 7) << 3));
+        self.set_inside(Voxel::new(x, y, z));
     }
 
     /// Whether the voxel box `lo..=hi` lies inside the grid and this slab,
@@ -112,8 +102,11 @@ impl SlabBricks {
     pub fn set_inside(&mut self, v: Voxel) {
         debug_assert!(self.holds(v.to_array(), v.to_array()), "{v} outside");
         let (x, y, z) = (v.x as u32, v.y as u32, (v.z - self.z0) as u32);
+        // All three are non-negative here: shifts and masks, not signed division.
         let (bx, by, bz) = ((x >> 3) as usize, (y >> 3) as usize, (z >> 3) as usize);
         let cell = bx + self.nb[0] * (by + self.nb[1] * bz);
+        // Consecutive crossings mostly share a brick: the table and the
+        // arena's growth are off the hot path.
         if cell != self.last.0 {
             self.switch_brick(cell, [bx, by, bz]);
         }

@@ -157,7 +157,7 @@ fn project(tri: &SurfaceTriangle, family: LineFamily) -> [[i64; 3]; 3] {
 
 /// Bytes per `(triangle, family)` pair of the Kahan–Kelsen set-up (its
 /// [`TriangleIndex`] and depth plane), for memory estimates.
-pub const BYTES_PER_PAIR: u64 = 360;
+pub const BYTES_PER_PAIR: u64 = 480;
 
 /// `floor(n / d)` for `0 < d` and `|n| < 2^50`, `d < 2^51`, given `recip =
 /// 1/d` rounded: the product carries two roundings of relative size 2^-53,
