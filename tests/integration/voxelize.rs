@@ -445,6 +445,19 @@ fn voxkit(args: &[&str]) -> std::process::Output {
         .unwrap()
 }
 
+/// Runs voxkit, asserts exit code 0 (showing stderr otherwise) and parses
+/// its one line of JSON.
+fn voxkit_json(args: &[&str]) -> serde_json::Value {
+    let o = voxkit(args);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
 fn tmp(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("voxkit-it-cli-vox-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -680,7 +693,7 @@ fn cli_measure_reads_index_lists_and_voxel_files() {
         .write_npy(std::fs::File::create(&npy).unwrap())
         .unwrap();
     let (objs, npys) = (obj.to_str().unwrap(), npy.to_str().unwrap());
-    let o = voxkit(&[
+    let j = voxkit_json(&[
         "measure",
         objs,
         npys,
@@ -691,13 +704,6 @@ fn cli_measure_reads_index_lists_and_voxel_files() {
         "--voxel-size",
         "1",
     ]);
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(j["voxels"], serde_json::json!(reference.len()));
     assert_eq!(j["missing"], serde_json::json!(0));
     assert_eq!(j["extra"], serde_json::json!(0));
@@ -708,7 +714,7 @@ fn cli_measure_reads_index_lists_and_voxel_files() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("--origin"));
     // Our own voxel file carries its frame: voxelize, then measure the file.
     let vox = tmp("tet.binvox");
-    let o = voxkit(&[
+    let v = voxkit_json(&[
         "voxelize",
         objs,
         "-r",
@@ -721,21 +727,7 @@ fn cli_measure_reads_index_lists_and_voxel_files() {
         "--json",
         "--measure",
     ]);
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    let o = voxkit(&["measure", objs, vox.to_str().unwrap()]);
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let j = voxkit_json(&["measure", objs, vox.to_str().unwrap()]);
     assert_eq!(j["voxels"], v["voxels"]);
     assert_eq!(j["extra"], serde_json::json!(0));
     assert_eq!(j["tunnel6"], serde_json::json!(false));
@@ -772,16 +764,8 @@ fn kahan_kelsen_route_equals_the_crossing_kernel_on_snapped_input() {
         Some(2),
         "--kahan-kelsen without --snap is refused"
     );
-    let o = voxkit(&[&args[..], &["--snap", "--kahan-kelsen"]].concat());
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let kk: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let kk = voxkit_json(&[&args[..], &["--snap", "--kahan-kelsen"]].concat());
     assert_eq!(kk["kahan_kelsen"], serde_json::json!(true));
-    let o = voxkit(&[&args[..], &["--snap"]].concat());
-    let plain: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let plain = voxkit_json(&[&args[..], &["--snap"]].concat());
     assert_eq!(kk["voxels"], plain["voxels"]);
 }
