@@ -135,6 +135,38 @@ impl SlabBricks {
         self.last = (cell, slot);
     }
 
+    /// ORs the non-empty bricks of `staged`, placed at `origin`, into this
+    /// slab and clears them; the voxel box given to [`BrickBox::place`] must
+    /// have been accepted by [`SlabBricks::holds`].
+    #[inline]
+    pub fn merge(&mut self, staged: &mut BrickBox, origin: [i32; 3]) {
+        let (lo, hi) = staged.used;
+        for bz in lo[2]..=hi[2] {
+            for by in lo[1]..=hi[1] {
+                for bx in lo[0]..=hi[0] {
+                    let bits = &mut staged.bricks[(bx | by << 2 | bz << 4) & 63];
+                    if bits.iter().fold(0, |acc, w| acc | w) == 0 {
+                        continue;
+                    }
+                    let b = [
+                        ((origin[0] >> 3) as usize) + bx,
+                        ((origin[1] >> 3) as usize) + by,
+                        (((origin[2] - self.z0) >> 3) as usize) + bz,
+                    ];
+                    let cell = b[0] + self.nb[0] * (b[1] + self.nb[1] * b[2]);
+                    if cell != self.last.0 {
+                        self.switch_brick(cell, b);
+                    }
+                    let dst = &mut self.bricks[self.last.1 as usize - 1].1;
+                    for (d, w) in dst.iter_mut().zip(bits.iter_mut()) {
+                        *d |= *w;
+                        *w = 0;
+                    }
+                }
+            }
+        }
+    }
+
     /// Whether voxel `v` is set.
     pub fn get(&self, v: Voxel) -> bool {
         let inside = v.x >= 0
@@ -168,6 +200,73 @@ impl SlabBricks {
     /// The occupied bricks, borrowed.
     pub fn bricks(&self) -> &[([i32; 3], BrickBits)] {
         &self.bricks
+    }
+}
+
+/// Bricks per axis of a [`BrickBox`].
+const BOX_BRICKS: i32 = 4;
+
+/// A brick-aligned box of 4×4×4 bricks (32³ voxels) where the crossings of
+/// one triangle are staged before [`SlabBricks::merge`] ORs them into the
+/// slab.
+///
+/// Why: a triangle of the bunny at 1024³ has about 17 crossings spread over
+/// one to four bricks, and its three families visit them in turn. Setting
+/// them in the slab one by one costs a brick lookup per crossing and a
+/// mispredicted brick switch for about a third of them; in the box a
+/// crossing is a few shifts and an OR into a 4 KiB array that stays in L1,
+/// and the slab sees one lookup per touched brick.
+pub struct BrickBox {
+    bricks: [BrickBits; 64],
+    /// Bricks that may hold bits: min and max brick per axis, box-relative.
+    used: ([usize; 3], [usize; 3]),
+}
+
+impl Default for BrickBox {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl BrickBox {
+    /// An empty box.
+    pub fn new() -> Self {
+        BrickBox {
+            bricks: [[0; 8]; 64],
+            used: ([0; 3], [0; 3]),
+        }
+    }
+
+    /// The box origin (min corner voxel) that holds the voxel box
+    /// `lo..=hi`, if it fits; the box is then ready for [`BrickBox::set`]
+    /// with that origin.
+    #[inline]
+    pub fn place(&mut self, lo: [i32; 3], hi: [i32; 3]) -> Option<[i32; 3]> {
+        let origin = lo.map(|c| c & !(BRICK - 1));
+        if (0..3).any(|a| hi[a] - origin[a] >= BOX_BRICKS * BRICK) {
+            return None;
+        }
+        self.used = (
+            std::array::from_fn(|a| ((lo[a] - origin[a]) >> 3) as usize),
+            std::array::from_fn(|a| ((hi[a] - origin[a]) >> 3) as usize),
+        );
+        Some(origin)
+    }
+
+    /// Sets voxel `v` of a box placed at `origin`; `v` must lie in the
+    /// voxel box given to [`BrickBox::place`]. A voxel outside cannot
+    /// corrupt memory (the index is masked) but lands in a wrong place.
+    #[inline(always)]
+    pub fn set(&mut self, origin: [i32; 3], v: Voxel) {
+        let x = (v.x - origin[0]) as u32;
+        let y = (v.y - origin[1]) as u32;
+        let z = (v.z - origin[2]) as u32;
+        debug_assert!(
+            x < 32 && y < 32 && z < 32,
+            "{v} outside the box at {origin:?}"
+        );
+        let brick = ((x >> 3) | (y >> 3) << 2 | (z >> 3) << 4) as usize & 63;
+        self.bricks[brick][(z & 7) as usize] |= 1u64 << ((x & 7) | (y & 7) << 3);
     }
 }
 

@@ -28,7 +28,7 @@
 //! lattice origin so that all products fit `i64` for triangles spanning up to
 //! [`MAX_TRIANGLE_SPAN`] voxels; wider triangles take an `i128` path.
 
-use super::slab::{BRICK, BrickBits, SlabBricks};
+use super::slab::{BRICK, BrickBits, BrickBox, SlabBricks};
 use crate::grid::Voxel;
 
 /// Fraction bits of the fixed-point vertices the surface kernels take
@@ -232,18 +232,24 @@ fn crossings_from<const F: u8>(
     if span <= MAX_TRIANGLE_SPAN {
         crossings_local::<i64>(l, n, &mut emit_local);
     } else {
-        crossings_wide(l, &mut emit_local);
+        for [i, j, t] in crossings_wide(l) {
+            emit_local(i, j, t);
+        }
     }
 }
 
 /// The `i128` kernel for triangles wider than [`MAX_TRIANGLE_SPAN`]: rare,
-/// so kept out of line (and behind a `dyn` call) to leave the hot `i64`
-/// path small enough for the compiler to inline the voxel sink into it.
+/// so kept out of line, and returning its crossings (local `(i, j, T)`)
+/// rather than taking the voxel sink: a sink passed out of line would make
+/// the compiler keep the hot path's sink state in memory instead of
+/// registers.
 #[cold]
 #[inline(never)]
-fn crossings_wide(l: &[[i64; 3]; 3], emit: &mut dyn FnMut(i64, i64, i64)) {
+fn crossings_wide(l: &[[i64; 3]; 3]) -> Vec<[i64; 3]> {
     let wide = l.map(|q| q.map(i128::from));
-    crossings_local::<i128>(&wide, normal(&wide), &mut |i, j, t| emit(i, j, t));
+    let mut out = Vec::new();
+    crossings_local::<i128>(&wide, normal(&wide), &mut |i, j, t| out.push([i, j, t]));
+    out
 }
 
 /// The integer operations the crossing kernel needs; implemented for `i64`
@@ -328,7 +334,9 @@ fn div_floor_pos_i64(n: i64, d: i64) -> i64 {
     debug_assert!(d > 0);
     const EXACT: u64 = 1 << 53;
     if n.unsigned_abs() < EXACT && (d as u64) < EXACT {
-        let q = (n as f64 / d as f64) as i64;
+        // SAFETY: |n| < 2^53 and d ≥ 1, so the quotient is finite and below
+        // 2^53 in magnitude: it fits i64 (`as` would add saturation checks).
+        let q: i64 = unsafe { (n as f64 / d as f64).to_int_unchecked() };
         if n - q * d < 0 { q - 1 } else { q }
     } else {
         n.div_euclid(d)
@@ -346,7 +354,9 @@ fn div_rem_recip_i64(n: i64, d: i64, recip: f64) -> (i64, i64) {
     debug_assert!(d > 0);
     const SAFE: u64 = 1 << 50;
     if n.unsigned_abs() < SAFE && (d as u64) < SAFE {
-        let mut q = (n as f64 * recip) as i64;
+        // SAFETY: |n| < 2^50 and recip ≤ 1 (d ≥ 1), so the product is
+        // finite and below 2^51 in magnitude: it fits i64.
+        let mut q: i64 = unsafe { (n as f64 * recip).to_int_unchecked() };
         let mut r = n - q * d;
         if r < 0 {
             q -= 1;
@@ -373,109 +383,109 @@ fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], n: [I; 3], emit: &mut impl FnM
     }
     // Orient so that the projected triangle is counter-clockwise (c > 0):
     // then its closed interior is where all three edge functions are ≥ 0.
-    let order = if c < I::ZERO { [0, 2, 1] } else { [0, 1, 2] };
-    if c < I::ZERO {
+    let q = if c < I::ZERO {
         a = -a;
         b = -b;
         c = -c;
-    }
-    let q = [p[order[0]], p[order[1]], p[order[2]]];
-
-    // Edge k from q[k] to q[k+1]: E_k(i, j) = alpha_k·i + beta_k·j + gamma_k ≥ 0
-    // at lattice point (i·S, j·S).
-    let mut alpha = [I::ZERO; 3];
-    let mut beta = [I::ZERO; 3];
-    let mut gamma = [I::ZERO; 3];
-    for k in 0..3 {
-        let (p0, p1) = (q[k], q[(k + 1) % 3]);
-        let du = p1[0] - p0[0];
-        let dv = p1[1] - p0[1];
-        alpha[k] = -dv * s;
-        beta[k] = du * s;
-        gamma[k] = dv * p0[0] - du * p0[1];
-    }
+        [p[0], p[2], p[1]]
+    } else {
+        *p
+    };
 
     // Depth rounding: T = floor(t/S + 1/2) = floor(num / den) with
-    // num(i, j) = 2·c·t0 − 2·(a·(iS − u0) + b·(jS − v0)) + c·S, den = 2·c·S.
+    // num(i, j) = 2·c·t0 − 2·(a·(iS − u0) + b·(jS − v0)) + c·S, den = 2·c·S,
+    // written as num = k0 + i·di + j·dj.
     let (u0, v0, t0) = (q[0][0], q[0][1], q[0][2]);
     let two = I::ONE + I::ONE;
     let den = two * c * s;
     let recip = I::reciprocal(den);
-    let num_at = |i: I, j: I| two * c * t0 - two * (a * (i * s - u0) + b * (j * s - v0)) + c * s;
-    // Stepping i by one changes num by −2·a·S: split into quotient and
-    // remainder once so the row loop only adds.
     let di = -two * a * s;
+    let dj = -two * b * s;
+    let k0 = two * c * t0 + two * (a * u0 + b * v0) + c * s;
+    // Stepping i by one changes num by di: split into quotient and remainder
+    // once so the row loop only adds.
     let qi = di.div_floor_pos(den);
     let ri = di - qi * den;
 
-    let vmin = q[0][1].min(q[1][1]).min(q[2][1]);
-    let vmax = q[0][1].max(q[1][1]).max(q[2][1]);
-    // S = 2^VOXEL_FRAC_BITS: floor and ceil divisions by S are shifts.
-    let j_lo = -((-vmin) >> VOXEL_FRAC_BITS);
-    let j_hi = vmax >> VOXEL_FRAC_BITS;
-    // Row bounds, stepped: with N_k(j) = beta_k·j + gamma_k (≥ 0 inside) and
-    // d_k = |alpha_k|, an edge with alpha_k > 0 bounds i from below by
-    // ceil(−N_k/alpha_k) = −floor(N_k/d_k), one with alpha_k < 0 from above
-    // by floor(N_k/d_k); an edge with alpha_k = 0 empties the row where
-    // N_k(j) < 0. A counter-clockwise triangle has one or two edges of each
-    // bounding kind; they are sorted into two lower and two upper slots
-    // (repeating an edge when it is alone) and one flat slot (a dummy that
-    // never empties a row when no edge is flat), so the row loop runs the
-    // same branch-free steps for every triangle. floor(N_k/d_k) and its
-    // remainder are carried from row to row (N_k grows by beta_k): a row
-    // costs additions and selects, not divisions.
-    let mut lower: [Carry<I>; 2] = [Carry::IDLE; 2];
-    let mut upper: [Carry<I>; 2] = [Carry::IDLE; 2];
-    let mut flat_n = I::ONE; // N_k(j) of the flat edge; ≥ 0 for the dummy
-    let mut flat_step = I::ZERO;
-    let (mut nl, mut nu) = (0, 0);
-    for k in 0..3 {
-        let n = beta[k] * j_lo + gamma[k];
-        if alpha[k] == I::ZERO {
-            flat_n = n;
-            flat_step = beta[k];
+    // Rows. Sort the vertices by v: A lowest, C highest, B between. A row
+    // j with A.v ≤ jS ≤ B.v crosses edges AB and AC, a row with
+    // B.v < jS ≤ C.v crosses BC and AC; on a row the other edge's half-plane
+    // is implied by convexity, so each row is bounded by exactly two edges,
+    // one from below and one from above. Edge X→Y (counter-clockwise order)
+    // is E(i, j) = du·(jS − v_X) − dv·(iS − u_X) ≥ 0 inside, with (du, dv) =
+    // Y − X; with N(j) = du·(jS − v_X) + dv·u_X it bounds i from below by
+    // −floor(N/(|dv|·S)) when dv < 0 and from above by floor(N/(dv·S)) when
+    // dv > 0; a flat edge (dv = 0) bounds no row of its half, which is why a
+    // flat AB hands its row to BC.
+    let v = |k: usize| q[k][1];
+    let (mut ia, mut ib, mut ic) = (0usize, 1usize, 2usize);
+    if v(ib) < v(ia) {
+        std::mem::swap(&mut ia, &mut ib);
+    }
+    if v(ic) < v(ib) {
+        std::mem::swap(&mut ib, &mut ic);
+    }
+    if v(ib) < v(ia) {
+        std::mem::swap(&mut ia, &mut ib);
+    }
+    // The bound of edge {x, y} from row j0 on, as a Carry of the row's
+    // lower end ceil(−N/(|dv|·S)) = floor((−N + |dv|·S − 1)/(|dv|·S)) or
+    // upper end floor(N/(dv·S)), and whether it is the lower one.
+    let edge = |x: usize, y: usize, j0: I| -> (Carry<I>, bool) {
+        // Counter-clockwise direction: x→y when y follows x in 0, 1, 2.
+        let (x, y) = if (x + 1) % 3 == y { (x, y) } else { (y, x) };
+        let (px, py) = (q[x], q[y]);
+        let (du, dv) = (py[0] - px[0], py[1] - px[1]);
+        let n0 = du * (j0 * s - px[1]) + dv * px[0];
+        let step = du * s;
+        if dv < I::ZERO {
+            let d = -dv * s;
+            (Carry::new(d - I::ONE - n0, -step, d), true)
         } else {
-            let carry = Carry::new(
-                n,
-                beta[k],
-                if alpha[k] < I::ZERO {
-                    -alpha[k]
-                } else {
-                    alpha[k]
-                },
-            );
-            if alpha[k] > I::ZERO {
-                lower[nl] = carry;
-                nl += 1;
+            (Carry::new(n0, step, dv * s), false)
+        }
+    };
+    // S = 2^VOXEL_FRAC_BITS: floor and ceil divisions by S are shifts.
+    let j_lo = -((-v(ia)) >> VOXEL_FRAC_BITS);
+    let j_hi = v(ic) >> VOXEL_FRAC_BITS;
+    let j_mid = if v(ia) == v(ib) {
+        j_lo - I::ONE
+    } else {
+        (v(ib) >> VOXEL_FRAC_BITS).min(j_hi)
+    };
+    if j_lo > j_hi {
+        return;
+    }
+    // The long edge AC bounds every row; the short edge is AB up to row
+    // j_mid, then BC (built when reached). Convexity puts them on opposite
+    // sides.
+    let (long, long_lower) = edge(ia, ic, j_lo);
+    let (short, j_switch) = if j_lo <= j_mid {
+        (edge(ia, ib, j_lo).0, j_mid + I::ONE)
+    } else {
+        (edge(ib, ic, j_lo).0, j_hi + I::ONE)
+    };
+    let (mut lower, mut upper) = if long_lower {
+        (long, short)
+    } else {
+        (short, long)
+    };
+    let mut j = j_lo;
+    let mut num_j = k0 + j_lo * dj;
+    while j <= j_hi {
+        if j == j_switch {
+            let bc = edge(ib, ic, j).0;
+            if long_lower {
+                upper = bc;
             } else {
-                upper[nu] = carry;
-                nu += 1;
+                lower = bc;
             }
         }
-    }
-    if nl == 1 {
-        lower[1] = lower[0];
-    }
-    if nu == 1 {
-        upper[1] = upper[0];
-    }
-    // With c > 0 both kinds occur (nl, nu ≥ 1): two parallel edges cannot
-    // close a triangle of positive area.
-    debug_assert!(nl >= 1 && nu >= 1);
-    let mut j = j_lo;
-    while j <= j_hi {
-        // Lattice i in the closed triangle on row j.
-        let lo = (-lower[0].q).max(-lower[1].q);
-        let hi = upper[0].q.min(upper[1].q);
-        let open = flat_n >= I::ZERO;
-        lower[0].step();
-        lower[1].step();
-        upper[0].step();
-        upper[1].step();
-        flat_n += flat_step;
-        if open && lo <= hi {
-            let num = num_at(lo, j);
-            let (mut t, mut r) = num.div_rem_floor(den, recip);
+        let (lo, hi) = (lower.q, upper.q);
+        lower.step();
+        upper.step();
+        if lo <= hi {
+            let (mut t, mut r) = (num_j + lo * di).div_rem_floor(den, recip);
             let (jj, mut i, end) = (j.to_i64(), lo.to_i64(), hi.to_i64());
             loop {
                 emit(i, jj, t.to_i64());
@@ -490,6 +500,7 @@ fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], n: [I; 3], emit: &mut impl FnM
                 t += I::select(over, I::ONE, I::ZERO);
             }
         }
+        num_j += dj;
         j += I::ONE;
     }
 }
@@ -505,16 +516,6 @@ struct Carry<I> {
 }
 
 impl<I: KernelInt> Carry<I> {
-    /// A slot that never binds a row (`q = 0` stays, bounds come from the
-    /// repeated real edge).
-    const IDLE: Carry<I> = Carry {
-        q: I::ZERO,
-        r: I::ZERO,
-        sq: I::ZERO,
-        sr: I::ZERO,
-        d: I::ONE,
-    };
-
     #[inline(always)]
     fn new(n: I, step: I, d: I) -> Self {
         let q = n.div_floor_pos(d);
@@ -578,13 +579,20 @@ pub fn voxelize_surface(
         .par_iter()
         .map(|slab| {
             let mut bricks = SlabBricks::new(dims, slab.z0, slab.z1);
+            let mut staged = BrickBox::new();
             for &t in &slab.triangles {
                 let tri = &triangles[t as usize];
                 // Most triangles lie well inside the grid and the slab:
-                // those skip the clamping and the slab test per voxel.
+                // those skip the clamping and the slab test per voxel, and
+                // small ones are staged in a box of 2×2×2 bricks.
                 let (lo, hi) = crossing_bounds(tri);
                 if bricks.holds(lo, hi) {
-                    all_families(mode, tri, &mut |v| bricks.set_inside(v));
+                    if let Some(origin) = staged.place(lo, hi) {
+                        all_families(mode, tri, &mut |v| staged.set(origin, v));
+                        bricks.merge(&mut staged, origin);
+                    } else {
+                        all_families(mode, tri, &mut |v| bricks.set_inside(v));
+                    }
                 } else {
                     all_families(mode, tri, &mut |v| bricks.set(v));
                 }
@@ -609,20 +617,23 @@ fn all_families(mode: SurfaceMode, tri: &SurfaceTriangle, emit: &mut impl FnMut(
     }
 }
 
-/// A voxel box holding every crossing voxel of `tri` in any family: a
-/// crossing voxel is within 1/2 of a point of the triangle on every axis
-/// (the lattice coordinates exactly, the rounded one by at most 1/2, and a
-/// diagonal family's sheared coordinates by at most 1/2 as well), so one
-/// voxel of margin around the floored bounding box is enough.
+/// A voxel box holding every crossing voxel of `tri` in any family: each
+/// coordinate of a crossing voxel is within 1/2 of the same coordinate of a
+/// point of the triangle (the lattice coordinates exactly, the rounded one
+/// by `|T − t| ≤ 1/2`, and a diagonal family's sheared coordinates `i ± T`
+/// by the same amount), so per axis it lies in
+/// `[ceil(min − 1/2), floor(max + 1/2)]`.
 #[inline]
 fn crossing_bounds(tri: &SurfaceTriangle) -> ([i32; 3], [i32; 3]) {
+    const HALF: i64 = VOXEL_ONE / 2;
     let mut lo = [0i32; 3];
     let mut hi = [0i32; 3];
     for a in 0..3 {
         let mn = tri[0][a].min(tri[1][a]).min(tri[2][a]);
         let mx = tri[0][a].max(tri[1][a]).max(tri[2][a]);
-        lo[a] = ((mn >> VOXEL_FRAC_BITS) - 1).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
-        hi[a] = ((mx >> VOXEL_FRAC_BITS) + 1).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        let clamp = |v: i64| v.clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        lo[a] = clamp(-((HALF - mn) >> VOXEL_FRAC_BITS));
+        hi[a] = clamp((mx + HALF) >> VOXEL_FRAC_BITS);
     }
     (lo, hi)
 }
@@ -896,6 +907,88 @@ mod tests {
                 kernel(&tri, LineFamily::Axis(2)),
                 reference(&tri, LineFamily::Axis(2))
             );
+        }
+    }
+
+    #[test]
+    fn crossing_bounds_hold_every_crossing() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
+        for case in 0..4000 {
+            // Half-voxel multiples put crossings exactly on rounding ties.
+            let unit = [1, VOXEL_ONE / 2, VOXEL_ONE][case % 3];
+            let extent = [2, 7, 30][case % 4 % 3] * VOXEL_ONE / unit;
+            let off = rng.random_range(-300..300) * VOXEL_ONE;
+            let tri: SurfaceTriangle = std::array::from_fn(|_| {
+                std::array::from_fn(|_| off + rng.random_range(-extent..=extent) * unit)
+            });
+            let (lo, hi) = crossing_bounds(&tri);
+            for family in THIN_FAMILIES.iter().chain(THICK_FAMILIES.iter()) {
+                triangle_crossings(&tri, *family, &mut |v| {
+                    let v = v.to_array();
+                    assert!(
+                        (0..3).all(|a| lo[a] <= v[a] && v[a] <= hi[a]),
+                        "{tri:?} {family:?}: {v:?} outside {lo:?}..={hi:?}"
+                    );
+                });
+            }
+        }
+    }
+
+    /// `voxelize_surface` (slabs, staging boxes, clamping) against the plain
+    /// union of every family's crossings, clamped into the grid.
+    #[test]
+    fn voxelize_surface_equals_the_union_of_crossings() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
+        let dims = [70, 45, 90];
+        for round in 0..12 {
+            // Small triangles (staged in a box), large ones (set directly)
+            // and ones poking out of the grid (clamped).
+            let tris: Vec<SurfaceTriangle> = (0..150)
+                .map(|k| {
+                    let extent = [3, 12, 40, 70][(k + round) % 4] * VOXEL_ONE;
+                    let c: [i64; 3] = std::array::from_fn(|a| {
+                        rng.random_range(-2..dims[a] as i64 + 2) * VOXEL_ONE
+                    });
+                    std::array::from_fn(|_| {
+                        std::array::from_fn(|a| {
+                            (c[a] + rng.random_range(-extent..=extent) / 2)
+                                .clamp(-VOXEL_ONE / 2, dims[a] as i64 * VOXEL_ONE - VOXEL_ONE / 2)
+                        })
+                    })
+                })
+                .collect();
+            for mode in [SurfaceMode::Thin, SurfaceMode::Thick] {
+                let mut want = std::collections::BTreeSet::new();
+                for tri in &tris {
+                    for family in mode.families() {
+                        triangle_crossings(tri, *family, &mut |v| {
+                            let v = v.to_array();
+                            want.insert(std::array::from_fn::<i32, 3, _>(|a| {
+                                v[a].clamp(0, dims[a] - 1)
+                            }));
+                        });
+                    }
+                }
+                let mut got = std::collections::BTreeSet::new();
+                let bricks = voxelize_surface(&tris, dims, mode);
+                let mut seen = std::collections::HashSet::new();
+                for (corner, bits) in &bricks {
+                    assert!(seen.insert(*corner), "brick {corner:?} twice");
+                    assert!(bits.iter().any(|&w| w != 0), "empty brick {corner:?}");
+                    for (z, w) in bits.iter().enumerate() {
+                        for b in 0..64 {
+                            if w >> b & 1 == 1 {
+                                got.insert([
+                                    corner[0] + (b & 7),
+                                    corner[1] + (b >> 3),
+                                    corner[2] + z as i32,
+                                ]);
+                            }
+                        }
+                    }
+                }
+                assert_eq!(got, want, "round {round} {mode:?}");
+            }
         }
     }
 
