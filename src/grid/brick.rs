@@ -246,8 +246,33 @@ impl BrickGrid {
     /// are dropped. Cheaper than [`BrickGrid::or_brick`] one at a time: the
     /// brick arrays are taken over and the index is built in one pass.
     pub fn from_bricks(bricks: impl IntoIterator<Item = (Voxel, BrickMask)>) -> Self {
-        let (keys, masks): (Vec<Voxel>, Vec<BrickMask>) =
-            bricks.into_iter().filter(|(_, m)| *m != [0; 8]).unzip();
+        let (keys, masks): (Vec<Voxel>, Vec<BrickMask>) = bricks.into_iter().unzip();
+        Self::from_parts(keys, masks)
+    }
+
+    /// [`BrickGrid::from_bricks`] from parallel arrays of brick coordinates
+    /// and masks (taken over, not copied, when no mask is empty).
+    ///
+    /// ```
+    /// use voxkit::grid::{BrickGrid, Voxel};
+    /// let g = BrickGrid::from_parts(vec![Voxel::new(0, 0, 1)], vec![[1, 0, 0, 0, 0, 0, 0, 0]]);
+    /// assert!(g.contains(Voxel::new(0, 0, 8)));
+    /// assert_eq!(g.count(), 1);
+    /// ```
+    pub fn from_parts(mut keys: Vec<Voxel>, mut masks: Vec<BrickMask>) -> Self {
+        assert_eq!(keys.len(), masks.len(), "one mask per brick coordinate");
+        if masks.contains(&[0; 8]) {
+            let mut k = 0;
+            for s in 0..keys.len() {
+                if masks[s] != [0; 8] {
+                    keys[k] = keys[s];
+                    masks[k] = masks[s];
+                    k += 1;
+                }
+            }
+            keys.truncate(k);
+            masks.truncate(k);
+        }
         let mut slots = HashMap::with_capacity_and_hasher(keys.len(), FxBuild::default());
         let mut g = BrickGrid::new();
         for (s, k) in keys.iter().enumerate() {

@@ -63,10 +63,11 @@ use crate::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
 use crate::line::{Line26, Segment, Tripod6};
 use crate::mesh::{Mesh, fit_frame, fitted_voxel};
 use crate::voxelize::conservative::{FixedTriangle, conservative_voxels};
+use crate::voxelize::slab::BrickList;
 use crate::voxelize::snapped::voxelize_snapped;
 use crate::voxelize::solid::solid_voxels_voting;
 use crate::voxelize::surface::{
-    SurfaceMode, SurfaceTriangle, VOXEL_FRAC_BITS, VOXEL_ONE, voxelize_surface,
+    SurfaceMode, SurfaceTriangle, VOXEL_FRAC_BITS, VOXEL_ONE, voxelize_surface_slabs,
 };
 
 /// Shift from [`VOXEL_FRAC_BITS`] (1/256) to the reference's
@@ -538,11 +539,11 @@ fn surface_bricks(
     dims: [i32; 3],
     mode: SurfaceMode,
     kahan_kelsen: bool,
-) -> Result<Vec<([i32; 3], crate::voxelize::slab::BrickBits)>> {
+) -> Result<Vec<BrickList>> {
     if kahan_kelsen {
-        voxelize_snapped(triangles, dims, mode)
+        Ok(vec![voxelize_snapped(triangles, dims, mode)?])
     } else {
-        Ok(voxelize_surface(triangles, dims, mode))
+        Ok(voxelize_surface_slabs(triangles, dims, mode))
     }
 }
 
@@ -550,14 +551,20 @@ fn ms(d: std::time::Duration) -> f64 {
     d.as_secs_f64() * 1e3
 }
 
-/// The surface driver's bricks (each exactly once) as a [`BrickGrid`].
-fn bricks_to_grid(bricks: Vec<([i32; 3], crate::voxelize::slab::BrickBits)>) -> BrickGrid {
-    // Slabs are disjoint, so every brick comes exactly once.
-    BrickGrid::from_bricks(
-        bricks
-            .into_iter()
-            .map(|(corner, bits)| (Voxel::from_array(corner) >> 3, bits)),
-    )
+/// The surface driver's brick lists (each brick exactly once over all
+/// lists) as a [`BrickGrid`], copying every brick once into arrays sized up
+/// front.
+fn bricks_to_grid(lists: Vec<BrickList>) -> BrickGrid {
+    let total = lists.iter().map(Vec::len).sum();
+    let mut keys = Vec::with_capacity(total);
+    let mut masks = Vec::with_capacity(total);
+    for list in lists {
+        for (corner, bits) in list {
+            keys.push(Voxel::from_array(corner) >> 3);
+            masks.push(bits);
+        }
+    }
+    BrickGrid::from_parts(keys, masks)
 }
 
 /// The exact conservative set of reference triangles, restricted to the grid

@@ -18,6 +18,9 @@ const _: () = assert!(BRICK == 8, "SlabBricks::set uses shifts by 3");
 /// One 8³ brick as 8 words: bit `x + 8·y` of word `z` is voxel `(x, y, z)`.
 pub type BrickBits = [u64; 8];
 
+/// Occupied bricks as (min-corner voxel, bits), each brick once.
+pub type BrickList = Vec<([i32; 3], BrickBits)>;
+
 /// The bricks of one z-slab `[z0, z1)` of a grid with `dims`.
 pub struct SlabBricks {
     dims: [i32; 3],

@@ -28,7 +28,7 @@
 //! lattice origin so that all products fit `i64` for triangles spanning up to
 //! [`MAX_TRIANGLE_SPAN`] voxels; wider triangles take an `i128` path.
 
-use super::slab::{BRICK, BrickBits, BrickBox, SlabBricks};
+use super::slab::{BRICK, BrickBits, BrickBox, BrickList, SlabBricks};
 use crate::grid::Voxel;
 
 /// Fraction bits of the fixed-point vertices the surface kernels take
@@ -572,10 +572,23 @@ pub fn voxelize_surface(
     dims: [i32; 3],
     mode: SurfaceMode,
 ) -> Vec<([i32; 3], BrickBits)> {
+    voxelize_surface_slabs(triangles, dims, mode)
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+/// [`voxelize_surface`] before its slabs' bricks are concatenated: one list
+/// per z-slab, in slab order (so a caller building its own storage copies
+/// the bricks once, not twice).
+pub fn voxelize_surface_slabs(
+    triangles: &[SurfaceTriangle],
+    dims: [i32; 3],
+    mode: SurfaceMode,
+) -> Vec<BrickList> {
     use rayon::prelude::*;
     let plan = SlabPlan::new(triangles, dims);
-    let slabs: Vec<Vec<([i32; 3], BrickBits)>> = plan
-        .slabs
+    plan.slabs
         .par_iter()
         .map(|slab| {
             let mut bricks = SlabBricks::new(dims, slab.z0, slab.z1);
@@ -599,8 +612,7 @@ pub fn voxelize_surface(
             }
             bricks.into_bricks()
         })
-        .collect();
-    slabs.into_iter().flatten().collect()
+        .collect()
 }
 
 /// Every crossing of `tri` in the families of `mode`.
