@@ -97,6 +97,13 @@ impl SlabBricks {
             && hi[2] < self.z1
     }
 
+    /// Whether the voxel box `lo..=hi` lies inside the grid (in z too, but
+    /// not necessarily in this slab): what [`SlabBricks::merge`] needs.
+    #[inline]
+    pub fn holds_in_grid(&self, lo: [i32; 3], hi: [i32; 3]) -> bool {
+        (0..3).all(|a| lo[a] >= 0 && hi[a] < self.dims[a])
+    }
+
     /// Sets voxel `v`, which the caller knows lies inside the grid and this
     /// slab (a box accepted by [`SlabBricks::holds`]): [`SlabBricks::set`]
     /// without the clamping and the slab test. A voxel outside still cannot
@@ -138,23 +145,31 @@ impl SlabBricks {
         self.last = (cell, slot);
     }
 
-    /// ORs the non-empty bricks of `staged`, placed at `origin`, into this
-    /// slab and clears them; the voxel box given to [`BrickBox::place`] must
-    /// have been accepted by [`SlabBricks::holds`].
+    /// ORs the non-empty bricks of `staged`, placed at `origin`, that lie in
+    /// this slab into it, and clears all of them; the voxel box given to
+    /// [`BrickBox::place`] must have been accepted by
+    /// [`SlabBricks::holds_in_grid`]. Bricks outside the slab belong to
+    /// another slab, which sets them itself (slabs are whole bricks).
     #[inline]
     pub fn merge(&mut self, staged: &mut BrickBox, origin: [i32; 3]) {
         let (lo, hi) = staged.used;
         for bz in lo[2]..=hi[2] {
+            let z = origin[2] + BRICK * bz as i32;
+            let in_slab = z >= self.z0 && z < self.z1;
             for by in lo[1]..=hi[1] {
                 for bx in lo[0]..=hi[0] {
                     let bits = &mut staged.bricks[(bx | by << 2 | bz << 4) & 63];
+                    if !in_slab {
+                        *bits = [0; 8];
+                        continue;
+                    }
                     if bits.iter().fold(0, |acc, w| acc | w) == 0 {
                         continue;
                     }
                     let b = [
                         ((origin[0] >> 3) as usize) + bx,
                         ((origin[1] >> 3) as usize) + by,
-                        (((origin[2] - self.z0) >> 3) as usize) + bz,
+                        ((z - self.z0) >> 3) as usize,
                     ];
                     let cell = b[0] + self.nb[0] * (b[1] + self.nb[1] * b[2]);
                     if cell != self.last.0 {

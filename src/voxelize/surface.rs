@@ -595,17 +595,22 @@ pub fn voxelize_surface_slabs(
             let mut staged = BrickBox::new();
             for &t in &slab.triangles {
                 let tri = &triangles[t as usize];
-                // Most triangles lie well inside the grid and the slab:
-                // those skip the clamping and the slab test per voxel, and
-                // small ones are staged in a box of 2×2×2 bricks.
+                // Most triangles lie well inside the grid: small ones are
+                // staged in a box of bricks (whose bricks outside this slab
+                // are dropped at the merge: slabs are whole bricks), larger
+                // ones inside the slab skip the clamping and the slab test
+                // per voxel.
                 let (lo, hi) = crossing_bounds(tri);
-                if bricks.holds(lo, hi) {
-                    if let Some(origin) = staged.place(lo, hi) {
-                        all_families(mode, tri, &mut |v| staged.set(origin, v));
-                        bricks.merge(&mut staged, origin);
-                    } else {
-                        all_families(mode, tri, &mut |v| bricks.set_inside(v));
-                    }
+                let staged_at = if bricks.holds_in_grid(lo, hi) {
+                    staged.place(lo, hi)
+                } else {
+                    None
+                };
+                if let Some(origin) = staged_at {
+                    all_families(mode, tri, &mut |v| staged.set(origin, v));
+                    bricks.merge(&mut staged, origin);
+                } else if bricks.holds(lo, hi) {
+                    all_families(mode, tri, &mut |v| bricks.set_inside(v));
                 } else {
                     all_families(mode, tri, &mut |v| bricks.set(v));
                 }
