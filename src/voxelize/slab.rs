@@ -40,20 +40,45 @@ impl SlabBricks {
     /// An empty slab covering voxel layers `z0..z1` (multiples of [`BRICK`],
     /// except that `z1` may be the grid's end).
     pub fn new(dims: [i32; 3], z0: i32, z1: i32) -> Self {
+        Self::with_table(dims, z0, z1, Vec::new())
+    }
+
+    /// [`SlabBricks::new`] reusing the table of a finished slab (see
+    /// [`SlabBricks::finish`]), which must be all zeros: memory that is
+    /// already mapped costs no page faults, where a fresh table of a 1024³
+    /// grid's slab (about a megabyte) takes hundreds.
+    pub fn with_table(dims: [i32; 3], z0: i32, z1: i32, mut table: Vec<u32>) -> Self {
         let nb = [
             (dims[0] as usize).div_ceil(BRICK as usize),
             (dims[1] as usize).div_ceil(BRICK as usize),
             ((z1 - z0) as usize).div_ceil(BRICK as usize),
         ];
+        debug_assert!(
+            table.iter().all(|&c| c == 0),
+            "a reused table must be clear"
+        );
+        table.resize(nb[0] * nb[1] * nb[2], 0);
         SlabBricks {
             dims,
             z0,
             z1,
             nb,
-            table: vec![0; nb[0] * nb[1] * nb[2]],
+            table,
             bricks: Vec::new(),
             last: (usize::MAX, 0),
         }
+    }
+
+    /// The occupied bricks (as [`SlabBricks::into_bricks`]) and the table,
+    /// cleared for [`SlabBricks::with_table`] (only the cells of occupied
+    /// bricks were written, so only those are reset).
+    pub fn finish(mut self) -> (Vec<([i32; 3], BrickBits)>, Vec<u32>) {
+        for (corner, _) in &self.bricks {
+            let b =
+                [corner[0] >> 3, corner[1] >> 3, (corner[2] - self.z0) >> 3].map(|c| c as usize);
+            self.table[b[0] + self.nb[0] * (b[1] + self.nb[1] * b[2])] = 0;
+        }
+        (self.bricks, self.table)
     }
 
     /// Bytes this slab holds.

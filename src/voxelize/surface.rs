@@ -588,10 +588,15 @@ pub fn voxelize_surface_slabs(
 ) -> Vec<BrickList> {
     use rayon::prelude::*;
     let plan = SlabPlan::new(triangles, dims);
+    // Cleared slab tables for the next slab: a table per thread at a time
+    // is mapped once instead of once per slab.
+    let tables = std::sync::Mutex::new(Vec::<Vec<u32>>::new());
     plan.slabs
         .par_iter()
         .map(|slab| {
-            let mut bricks = SlabBricks::new(dims, slab.z0, slab.z1);
+            let table = tables.lock().map(|mut t| t.pop()).unwrap_or_default();
+            let mut bricks =
+                SlabBricks::with_table(dims, slab.z0, slab.z1, table.unwrap_or_default());
             let mut staged = BrickBox::new();
             for &t in &slab.triangles {
                 let tri = &triangles[t as usize];
@@ -615,7 +620,11 @@ pub fn voxelize_surface_slabs(
                     all_families(mode, tri, &mut |v| bricks.set(v));
                 }
             }
-            bricks.into_bricks()
+            let (list, table) = bricks.finish();
+            if let Ok(mut t) = tables.lock() {
+                t.push(table);
+            }
+            list
         })
         .collect()
 }
