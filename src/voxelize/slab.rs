@@ -296,6 +296,14 @@ impl BrickBox {
         Some(origin)
     }
 
+    /// The box's words: word `8·brick + (z & 7)`, brick `bx | by << 2 |
+    /// bz << 4` (box-relative brick coordinates), bit `(x & 7) | (y & 7) << 3`.
+    #[inline(always)]
+    pub fn words_mut(&mut self) -> &mut [u64; 512] {
+        let words: &mut [u64] = self.bricks.as_flattened_mut();
+        words.try_into().expect("64 bricks of 8 words")
+    }
+
     /// Sets voxel `v` of a box placed at `origin`; `v` must lie in the
     /// voxel box given to [`BrickBox::place`]. A voxel outside cannot
     /// corrupt memory (the index is masked) but lands in a wrong place.

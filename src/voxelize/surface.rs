@@ -156,7 +156,7 @@ pub fn triangle_crossings(tri: &SurfaceTriangle, family: LineFamily, emit: &mut 
 
 /// [`triangle_crossings`] for the family with code `F`.
 #[inline(always)]
-fn family_crossings<const F: u8>(tri: &SurfaceTriangle, emit: &mut impl FnMut(Voxel)) {
+fn family_crossings<const F: u8>(tri: &SurfaceTriangle, emit: &mut impl CrossingSink) {
     let family = match F {
         0..=2 => LineFamily::Axis(F as usize),
         3 => LineFamily::Diagonal(1, 1),
@@ -175,7 +175,7 @@ fn family_crossings<const F: u8>(tri: &SurfaceTriangle, emit: &mut impl FnMut(Vo
 /// the coordinates, so one local origin and one normal serve all three,
 /// permuted.
 #[inline(always)]
-fn thin_crossings(tri: &SurfaceTriangle, emit: &mut impl FnMut(Voxel)) {
+fn thin_crossings(tri: &SurfaceTriangle, emit: &mut impl CrossingSink) {
     let (origin, l, span) = localize(tri);
     let n = normal(&l);
     let cyc = |v: [i64; 3], k: usize| [v[k % 3], v[(k + 1) % 3], v[(k + 2) % 3]];
@@ -224,16 +224,155 @@ fn crossings_from<const F: u8>(
     n: [i64; 3],
     origin: [i64; 3],
     span: i64,
-    emit: &mut impl FnMut(Voxel),
+    sink: &mut impl CrossingSink,
 ) {
     // The family's voxel map is linear: map the origin once.
     let base = family_voxel::<F>(origin[0], origin[1], origin[2]);
-    let mut emit_local = |i: i64, j: i64, t: i64| emit(family_voxel::<F>(i, j, t) + base);
     if span <= MAX_TRIANGLE_SPAN {
-        crossings_local::<i64>(l, n, &mut emit_local);
+        crossings_local::<i64>(l, n, &mut |row| sink.row::<F>(base, row));
     } else {
         for [i, j, t] in crossings_wide(l) {
-            emit_local(i, j, t);
+            sink.voxel(family_voxel::<F>(i, j, t) + base);
+        }
+    }
+}
+
+/// One row of a projected triangle's crossings in local family coordinates:
+/// the lattice points `i` in `lo..=hi` of row `j`. The first has depth voxel
+/// `t` with remainder `r` (of `den`); each step in `i` adds `qi` to `t` and
+/// `ri` to `r`, carrying one into `t` when `r` reaches `den`.
+#[derive(Clone, Copy, Debug)]
+struct Row<I> {
+    j: I,
+    lo: I,
+    hi: I,
+    t: I,
+    r: I,
+    qi: I,
+    ri: I,
+    den: I,
+}
+
+impl<I: KernelInt> Row<I> {
+    /// Calls `f(i, t)` for every crossing of the row, in order.
+    #[inline(always)]
+    fn for_each(self, mut f: impl FnMut(I, I)) {
+        let Row {
+            lo,
+            hi,
+            mut t,
+            mut r,
+            qi,
+            ri,
+            den,
+            ..
+        } = self;
+        let mut i = lo;
+        loop {
+            f(i, t);
+            if i == hi {
+                break;
+            }
+            i += I::ONE;
+            t += qi;
+            r += ri;
+            let over = r >= den;
+            r -= I::select(over, den, I::ZERO);
+            t += I::select(over, I::ONE, I::ZERO);
+        }
+    }
+}
+
+/// Where the kernel's crossings go: one voxel at a time, or (to let a sink
+/// step its own storage along the row) a row of family `F` at a time.
+/// Every `FnMut(Voxel)` closure is a sink.
+trait CrossingSink {
+    /// Takes one crossing voxel.
+    fn voxel(&mut self, v: Voxel);
+
+    /// Takes the crossings of `row` of family `F`, offset by `base` (grid
+    /// voxel of the local origin); by default one voxel at a time.
+    #[inline(always)]
+    fn row<const F: u8>(&mut self, base: Voxel, row: Row<i64>) {
+        let j = row.j;
+        row.for_each(|i, t| self.voxel(family_voxel::<F>(i, j, t) + base));
+    }
+}
+
+impl<T: FnMut(Voxel)> CrossingSink for T {
+    #[inline(always)]
+    fn voxel(&mut self, v: Voxel) {
+        self(v)
+    }
+}
+
+/// A [`BrickBox`] placed at `origin` as a crossing sink: rows are stepped in
+/// the box's bit address directly.
+struct Staging<'a> {
+    staged: &'a mut BrickBox,
+    origin: [i32; 3],
+}
+
+impl CrossingSink for Staging<'_> {
+    #[inline(always)]
+    fn voxel(&mut self, v: Voxel) {
+        self.staged.set(self.origin, v);
+    }
+
+    /// A crossing's bit in the box is `x₀₋₂ | y₀₋₂ << 3 | z₀₋₂ << 6 | x₃₋₄ << 9
+    /// | y₃₋₄ << 11 | z₃₋₄ << 13` (bit in brick word, word in brick, brick in
+    /// box) of its box-relative coordinates: each coordinate sits in its own
+    /// bits ("dilated"), so a step along the row adds a constant to each
+    /// coordinate's bits — with the other bits set to one so the carry runs
+    /// through them — instead of recomputing the address from x, y, z.
+    #[inline(always)]
+    fn row<const F: u8>(&mut self, base: Voxel, row: Row<i64>) {
+        #[inline(always)]
+        fn dilate(v: u32, axis: u32) -> u32 {
+            (v & 7) << (3 * axis) | (v >> 3 & 3) << (9 + 2 * axis)
+        }
+        let o = self.origin;
+        let first = family_voxel::<F>(row.lo, row.j, row.t) + base;
+        let first = [first.x - o[0], first.y - o[1], first.z - o[2]];
+        // The family's map is linear: a step moves by map(1, 0, qi) or
+        // map(1, 0, qi + 1), taken modulo the box's 32 voxels.
+        let step = |dt: i64| {
+            let v = family_voxel::<F>(1, 0, dt);
+            [v.x, v.y, v.z]
+        };
+        let (s0, s1) = (step(row.qi), step(row.qi + 1));
+        // Axes the family never moves along a row (known at compile time).
+        let moves = {
+            let (a, b) = (step(0), family_voxel::<F>(0, 0, 1));
+            [
+                a[0] != 0 || b.x != 0,
+                a[1] != 0 || b.y != 0,
+                a[2] != 0 || b.z != 0,
+            ]
+        };
+        let mask: [u32; 3] = std::array::from_fn(|a| dilate(31, a as u32));
+        let mut p: [u32; 3] = std::array::from_fn(|a| dilate(first[a] as u32, a as u32));
+        let d0: [u32; 3] = std::array::from_fn(|a| dilate(s0[a] as u32 & 31, a as u32));
+        let d1: [u32; 3] = std::array::from_fn(|a| dilate(s1[a] as u32 & 31, a as u32));
+        let words = self.staged.words_mut();
+        let (mut r, ri, den) = (row.r, row.ri, row.den);
+        let mut left = row.hi - row.lo;
+        loop {
+            let addr = (p[0] | p[1] | p[2]) as usize;
+            words[(addr >> 6) & 511] |= 1u64 << (addr & 63);
+            if left == 0 {
+                break;
+            }
+            left -= 1;
+            r += ri;
+            let over = r >= den;
+            r -= if over { den } else { 0 };
+            for a in 0..3 {
+                if moves[a] {
+                    let d = if over { d1[a] } else { d0[a] };
+                    p[a] = ((p[a] | !mask[a]).wrapping_add(d)) & mask[a];
+                }
+            }
         }
     }
 }
@@ -248,7 +387,10 @@ fn crossings_from<const F: u8>(
 fn crossings_wide(l: &[[i64; 3]; 3]) -> Vec<[i64; 3]> {
     let wide = l.map(|q| q.map(i128::from));
     let mut out = Vec::new();
-    crossings_local::<i128>(&wide, normal(&wide), &mut |i, j, t| out.push([i, j, t]));
+    crossings_local::<i128>(&wide, normal(&wide), &mut |row| {
+        let j = row.j.to_i64();
+        row.for_each(|i, t| out.push([i.to_i64(), j, t.to_i64()]));
+    });
     out
 }
 
@@ -372,9 +514,10 @@ fn div_rem_recip_i64(n: i64, d: i64, recip: f64) -> (i64, i64) {
 }
 
 /// The kernel on a triangle in local family coordinates (fixed point, all
-/// coordinates in `0..=span·ONE`): emits `(i, j, T)` in local lattice units.
+/// coordinates in `0..=span·ONE`): emits the rows of crossings `(i, j, T)`
+/// in local lattice units.
 #[inline(always)]
-fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], n: [I; 3], emit: &mut impl FnMut(i64, i64, i64)) {
+fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], n: [I; 3], emit: &mut impl FnMut(Row<I>)) {
     let s = I::from_i64(VOXEL_ONE);
     // Plane normal (a, b, c); c is twice the signed projected area.
     let [mut a, mut b, mut c] = n;
@@ -485,20 +628,17 @@ fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], n: [I; 3], emit: &mut impl FnM
         lower.step();
         upper.step();
         if lo <= hi {
-            let (mut t, mut r) = (num_j + lo * di).div_rem_floor(den, recip);
-            let (jj, mut i, end) = (j.to_i64(), lo.to_i64(), hi.to_i64());
-            loop {
-                emit(i, jj, t.to_i64());
-                if i == end {
-                    break;
-                }
-                i += 1;
-                t += qi;
-                r += ri;
-                let over = r >= den;
-                r -= I::select(over, den, I::ZERO);
-                t += I::select(over, I::ONE, I::ZERO);
-            }
+            let (t, r) = (num_j + lo * di).div_rem_floor(den, recip);
+            emit(Row {
+                j,
+                lo,
+                hi,
+                t,
+                r,
+                qi,
+                ri,
+                den,
+            });
         }
         num_j += dj;
         j += I::ONE;
@@ -612,7 +752,14 @@ pub fn voxelize_surface_slabs(
                     None
                 };
                 if let Some(origin) = staged_at {
-                    all_families(mode, tri, &mut |v| staged.set(origin, v));
+                    all_families(
+                        mode,
+                        tri,
+                        &mut Staging {
+                            staged: &mut staged,
+                            origin,
+                        },
+                    );
                     bricks.merge(&mut staged, origin);
                 } else if bricks.holds(lo, hi) {
                     all_families(mode, tri, &mut |v| bricks.set_inside(v));
@@ -631,7 +778,7 @@ pub fn voxelize_surface_slabs(
 
 /// Every crossing of `tri` in the families of `mode`.
 #[inline(always)]
-fn all_families(mode: SurfaceMode, tri: &SurfaceTriangle, emit: &mut impl FnMut(Voxel)) {
+fn all_families(mode: SurfaceMode, tri: &SurfaceTriangle, emit: &mut impl CrossingSink) {
     match mode {
         SurfaceMode::Thin => thin_crossings(tri, emit),
         SurfaceMode::Thick => {
@@ -898,7 +1045,7 @@ mod tests {
             }
             want.sort();
             let mut got = Vec::new();
-            thin_crossings(&tri, &mut |v| got.push(v.to_array()));
+            thin_crossings(&tri, &mut |v: Voxel| got.push(v.to_array()));
             got.sort();
             assert_eq!(got, want, "{tri:?}");
         }
