@@ -76,7 +76,8 @@ impl SlabBricks {
         for (corner, _) in &self.bricks {
             let b =
                 [corner[0] >> 3, corner[1] >> 3, (corner[2] - self.z0) >> 3].map(|c| c as usize);
-            self.table[b[0] + self.nb[0] * (b[1] + self.nb[1] * b[2])] = 0;
+            let cell = self.cell(b);
+            self.table[cell] = 0;
         }
         (self.bricks, self.table)
     }
@@ -139,7 +140,7 @@ impl SlabBricks {
         let (x, y, z) = (v.x as u32, v.y as u32, (v.z - self.z0) as u32);
         // All three are non-negative here: shifts and masks, not signed division.
         let (bx, by, bz) = ((x >> 3) as usize, (y >> 3) as usize, (z >> 3) as usize);
-        let cell = bx + self.nb[0] * (by + self.nb[1] * bz);
+        let cell = self.cell([bx, by, bz]);
         // Consecutive crossings mostly share a brick: the table and the
         // arena's growth are off the hot path.
         if cell != self.last.0 {
@@ -147,6 +148,12 @@ impl SlabBricks {
         }
         let bits = &mut self.bricks[self.last.1 as usize - 1].1;
         bits[(z & 7) as usize] |= 1u64 << ((x & 7) | ((y & 7) << 3));
+    }
+
+    /// The table cell of brick coordinates `b` within the slab.
+    #[inline(always)]
+    fn cell(&self, b: [usize; 3]) -> usize {
+        b[0] + self.nb[0] * (b[1] + self.nb[1] * b[2])
     }
 
     /// Makes `cell` (brick coordinates `b` within the slab) the current
@@ -196,7 +203,7 @@ impl SlabBricks {
                         ((origin[1] >> 3) as usize) + by,
                         ((z - self.z0) >> 3) as usize,
                     ];
-                    let cell = b[0] + self.nb[0] * (b[1] + self.nb[1] * b[2]);
+                    let cell = self.cell(b);
                     if cell != self.last.0 {
                         self.switch_brick(cell, b);
                     }
@@ -222,8 +229,7 @@ impl SlabBricks {
             return false;
         }
         let (x, y, z) = (v.x, v.y, v.z - self.z0);
-        let cell = (x / BRICK) as usize
-            + self.nb[0] * ((y / BRICK) as usize + self.nb[1] * (z / BRICK) as usize);
+        let cell = self.cell([x, y, z].map(|c| (c / BRICK) as usize));
         match self.table[cell] {
             0 => false,
             slot => {
@@ -253,8 +259,9 @@ const BOX_BRICKS: i32 = 4;
 /// one triangle are staged before [`SlabBricks::merge`] ORs them into the
 /// slab.
 ///
-/// Why: a triangle of the bunny at 1024³ has about 17 crossings spread over
-/// one to four bricks, and its three families visit them in turn. Setting
+/// Why: a triangle of the bunny at 1024³ has about 52 crossings (17 per
+/// axis family) spread over one to four bricks, and its families visit them
+/// in turn. Setting
 /// them in the slab one by one costs a brick lookup per crossing and a
 /// mispredicted brick switch for about a third of them; in the box a
 /// crossing is a few shifts and an OR into a 4 KiB array that stays in L1,

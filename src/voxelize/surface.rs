@@ -961,6 +961,22 @@ mod tests {
         out
     }
 
+    /// A triangle with vertices on multiples of `unit` (fixed point) within
+    /// `extent` voxels of a random lattice point within `reach` voxels of
+    /// the origin.
+    fn random_triangle(
+        rng: &mut rand_chacha::ChaCha8Rng,
+        unit: i64,
+        extent: i64,
+        reach: i64,
+    ) -> SurfaceTriangle {
+        let extent = extent * VOXEL_ONE / unit;
+        let off = rng.random_range(-reach..reach) * VOXEL_ONE;
+        std::array::from_fn(|_| {
+            std::array::from_fn(|_| off + rng.random_range(-extent..=extent) * unit)
+        })
+    }
+
     fn kernel(tri: &SurfaceTriangle, family: LineFamily) -> Vec<[i32; 3]> {
         let mut got = Vec::new();
         triangle_crossings(tri, family, &mut |v| got.push(v.to_array()));
@@ -1057,12 +1073,8 @@ mod tests {
         for case in 0..3000 {
             // Mix of sub-voxel, lattice-snapped and half-voxel vertices.
             let scale = [1, VOXEL_ONE / 2, VOXEL_ONE][case % 3];
-            let extent = [3, 12, 40][case % 4 % 3] * VOXEL_ONE / scale;
-            let off = rng.random_range(-1000..1000) * VOXEL_ONE;
-            let tri: SurfaceTriangle = std::array::from_fn(|_| {
-                std::array::from_fn(|_| off + rng.random_range(-extent..=extent) * scale)
-            });
-            check(&tri);
+            let extent = [3, 12, 40][case % 4 % 3];
+            check(&random_triangle(&mut rng, scale, extent, 1000));
         }
     }
 
@@ -1089,11 +1101,7 @@ mod tests {
         for case in 0..4000 {
             // Half-voxel multiples put crossings exactly on rounding ties.
             let unit = [1, VOXEL_ONE / 2, VOXEL_ONE][case % 3];
-            let extent = [2, 7, 30][case % 4 % 3] * VOXEL_ONE / unit;
-            let off = rng.random_range(-300..300) * VOXEL_ONE;
-            let tri: SurfaceTriangle = std::array::from_fn(|_| {
-                std::array::from_fn(|_| off + rng.random_range(-extent..=extent) * unit)
-            });
+            let tri = random_triangle(&mut rng, unit, [2, 7, 30][case % 4 % 3], 300);
             let (lo, hi) = crossing_bounds(&tri);
             for family in THIN_FAMILIES.iter().chain(THICK_FAMILIES.iter()) {
                 triangle_crossings(&tri, *family, &mut |v| {
