@@ -554,12 +554,8 @@ fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], n: [I; 3], emit: &mut impl FnM
     // j with A.v ≤ jS ≤ B.v crosses edges AB and AC, a row with
     // B.v < jS ≤ C.v crosses BC and AC; on a row the other edge's half-plane
     // is implied by convexity, so each row is bounded by exactly two edges,
-    // one from below and one from above. Edge X→Y (counter-clockwise order)
-    // is E(i, j) = du·(jS − v_X) − dv·(iS − u_X) ≥ 0 inside, with (du, dv) =
-    // Y − X; with N(j) = du·(jS − v_X) + dv·u_X it bounds i from below by
-    // −floor(N/(|dv|·S)) when dv < 0 and from above by floor(N/(dv·S)) when
-    // dv > 0; a flat edge (dv = 0) bounds no row of its half, which is why a
-    // flat AB hands its row to BC.
+    // one from below and one from above. A flat edge (equal v) bounds no
+    // row of its half, which is why a flat AB hands its row to BC.
     let v = |k: usize| q[k][1];
     let (mut ia, mut ib, mut ic) = (0usize, 1usize, 2usize);
     if v(ib) < v(ia) {
@@ -571,23 +567,23 @@ fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], n: [I; 3], emit: &mut impl FnM
     if v(ib) < v(ia) {
         std::mem::swap(&mut ia, &mut ib);
     }
-    // The bound of edge {x, y} from row j0 on, as a Carry of the row's
-    // lower end ceil(−N/(|dv|·S)) = floor((−N + |dv|·S − 1)/(|dv|·S)) or
-    // upper end floor(N/(dv·S)), and whether it is the lower one.
-    let edge = |x: usize, y: usize, j0: I| -> (Carry<I>, bool) {
-        // Counter-clockwise direction: x→y when y follows x in 0, 1, 2.
-        let (x, y) = if (x + 1) % 3 == y { (x, y) } else { (y, x) };
-        let (px, py) = (q[x], q[y]);
-        let (du, dv) = (py[0] - px[0], py[1] - px[1]);
-        let n0 = du * (j0 * s - px[1]) + dv * px[0];
-        let step = du * s;
-        if dv < I::ZERO {
-            let d = -dv * s;
-            (Carry::new(d - I::ONE - n0, -step, d), true)
-        } else {
-            (Carry::new(n0, step, dv * s), false)
-        }
-    };
+    // Counter-clockwise, the vertices run A→B→C when (A, B, C) is a
+    // rotation of (0, 1, 2), else A→C→B. In the first case AC is walked
+    // downwards (C→A, dv < 0) and bounds rows from below while AB and BC
+    // bound them from above; in the second the sides swap.
+    let long_lower = ib == [1, 2, 0][ia];
+    // Edge P→Q (P lower in v, dv > 0) crosses row j at u = N(j)/(dv·S),
+    // N(j) = du·(jS − v_P) + dv·u_P: the row's lattice points run from
+    // ceil(N/(dv·S)) when the edge bounds from below, and up to
+    // floor(N/(dv·S)) when it bounds from above; carried from row j0 on.
+    #[inline(always)]
+    fn edge<I: KernelInt>(p: [I; 3], q: [I; 3], j0: I, lower: bool) -> Carry<I> {
+        let s = I::from_i64(VOXEL_ONE);
+        let (du, dv) = (q[0] - p[0], q[1] - p[1]);
+        let d = dv * s;
+        let n0 = du * (j0 * s - p[1]) + dv * p[0];
+        Carry::new(n0 + I::select(lower, d - I::ONE, I::ZERO), du * s, d)
+    }
     // S = 2^VOXEL_FRAC_BITS: floor and ceil divisions by S are shifts.
     let j_lo = -((-v(ia)) >> VOXEL_FRAC_BITS);
     let j_hi = v(ic) >> VOXEL_FRAC_BITS;
@@ -602,11 +598,11 @@ fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], n: [I; 3], emit: &mut impl FnM
     // The long edge AC bounds every row; the short edge is AB up to row
     // j_mid, then BC (built when reached). Convexity puts them on opposite
     // sides.
-    let (long, long_lower) = edge(ia, ic, j_lo);
+    let long = edge(q[ia], q[ic], j_lo, long_lower);
     let (short, j_switch) = if j_lo <= j_mid {
-        (edge(ia, ib, j_lo).0, j_mid + I::ONE)
+        (edge(q[ia], q[ib], j_lo, !long_lower), j_mid + I::ONE)
     } else {
-        (edge(ib, ic, j_lo).0, j_hi + I::ONE)
+        (edge(q[ib], q[ic], j_lo, !long_lower), j_hi + I::ONE)
     };
     let (mut lower, mut upper) = if long_lower {
         (long, short)
@@ -617,7 +613,7 @@ fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], n: [I; 3], emit: &mut impl FnM
     let mut num_j = k0 + j_lo * dj;
     while j <= j_hi {
         if j == j_switch {
-            let bc = edge(ib, ic, j).0;
+            let bc = edge(q[ib], q[ic], j, !long_lower);
             if long_lower {
                 upper = bc;
             } else {
@@ -704,9 +700,9 @@ impl SurfaceMode {
 /// Crossing voxels outside `0..dims` are clamped into the grid (see
 /// [`SlabBricks::set`]: for meshes fitted with the `-r N` rule they come
 /// from crossings on the grid box's faces). Returns the occupied bricks (min
-/// corner, bits), each brick exactly once; the order is deterministic (by
-/// slab, then by first touch in triangle order) and independent of the number
-/// of threads.
+/// corner, bits), each brick exactly once. The set does not depend on the
+/// number of threads; the order is by slab (slab cuts follow the thread
+/// count), then by first touch in the slab's Morton order of triangles.
 pub fn voxelize_surface(
     triangles: &[SurfaceTriangle],
     dims: [i32; 3],
@@ -738,7 +734,12 @@ pub fn voxelize_surface_slabs(
             let mut bricks =
                 SlabBricks::with_table(dims, slab.z0, slab.z1, table.unwrap_or_default());
             let mut staged = BrickBox::new();
-            for &t in &slab.triangles {
+            for (k, &t) in slab.triangles.iter().enumerate() {
+                // The slab's triangles are in spatial order, not memory
+                // order: fetch a few ahead so their loads overlap.
+                if let Some(&ahead) = slab.triangles.get(k + PREFETCH_AHEAD) {
+                    prefetch(&triangles[ahead as usize]);
+                }
                 let tri = &triangles[t as usize];
                 // Most triangles lie well inside the grid: small ones are
                 // staged in a box of bricks (whose bricks outside this slab
@@ -774,6 +775,28 @@ pub fn voxelize_surface_slabs(
             list
         })
         .collect()
+}
+
+/// How many triangles ahead the slab loop prefetches.
+const PREFETCH_AHEAD: usize = 8;
+
+/// Hints the CPU to bring `tri` into the cache (both lines it may span).
+#[inline(always)]
+fn prefetch(tri: &SurfaceTriangle) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        let p = (tri as *const SurfaceTriangle).cast::<i8>();
+        let last = p.wrapping_add(std::mem::size_of::<SurfaceTriangle>() - 1);
+        // SAFETY: the only requirement is SSE, which every x86-64 CPU has
+        // (it is in the baseline target); a prefetch never faults.
+        unsafe {
+            _mm_prefetch::<_MM_HINT_T0>(p);
+            _mm_prefetch::<_MM_HINT_T0>(last);
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = tri;
 }
 
 /// Every crossing of `tri` in the families of `mode`.
@@ -862,6 +885,11 @@ impl SlabPlan {
             .par_iter()
             .map(|tri| (z_range(tri), weight(tri)))
             .collect();
+        // Locality: each slab walks its triangles in Morton order of their
+        // min brick, so consecutive triangles mostly write the same few
+        // bricks (slab table cells and arena entries stay in cache); the
+        // mesh's own order can jump anywhere.
+        let keys: Vec<u32> = triangles.par_iter().map(brick_morton).collect();
         let mut per_layer = vec![0f64; nz as usize + 1];
         for &((lo, hi), w) in &ranges {
             let w = w / (hi - lo + 1) as f64;
@@ -910,8 +938,38 @@ impl SlabPlan {
                 slab.triangles.push(t as u32);
             }
         }
+        slabs.par_iter_mut().for_each(|slab| {
+            let mut keyed: Vec<u64> = slab
+                .triangles
+                .iter()
+                .map(|&t| (keys[t as usize] as u64) << 32 | t as u64)
+                .collect();
+            keyed.sort_unstable();
+            for (t, k) in slab.triangles.iter_mut().zip(keyed) {
+                *t = k as u32;
+            }
+        });
         SlabPlan { slabs }
     }
+}
+
+/// The Morton code (bits of x, y, z interleaved, x lowest) of the brick
+/// holding the triangle's min corner, clamped to the 2^10 bricks per axis
+/// the code has room for (grids are at most 2^13 voxels per axis).
+fn brick_morton(tri: &SurfaceTriangle) -> u32 {
+    /// Spreads the low 10 bits of `v` to every third bit.
+    fn spread(v: u32) -> u32 {
+        let mut v = v & 0x3ff;
+        v = (v | v << 16) & 0x0300_00ff;
+        v = (v | v << 8) & 0x0300_f00f;
+        v = (v | v << 4) & 0x030c_30c3;
+        (v | v << 2) & 0x0924_9249
+    }
+    let brick = |a: usize| {
+        let lo = tri[0][a].min(tri[1][a]).min(tri[2][a]);
+        (lo >> (VOXEL_FRAC_BITS + 3)).clamp(0, 0x3ff) as u32
+    };
+    spread(brick(0)) | spread(brick(1)) << 1 | spread(brick(2)) << 2
 }
 
 #[cfg(test)]
