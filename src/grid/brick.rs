@@ -13,6 +13,7 @@
 //! holds up to 512 voxels.
 
 use std::collections::HashMap;
+use std::sync::OnceLock;
 use std::hash::{BuildHasherDefault, Hasher};
 
 use super::{BitGrid, DenseGrid, Dims, MemoryLimit, Voxel};
@@ -72,6 +73,15 @@ impl Hasher for FxHasher {
 
 type FxBuild = BuildHasherDefault<FxHasher>;
 
+/// Brick coordinate → slot of `keys` (a repeated key keeps its last slot).
+fn index_of(keys: &[Voxel]) -> HashMap<Voxel, u32, FxBuild> {
+    let mut index = HashMap::with_capacity_and_hasher(keys.len(), FxBuild::default());
+    for (s, k) in keys.iter().enumerate() {
+        index.insert(*k, s as u32);
+    }
+    index
+}
+
 /// Brick coordinate of voxel `v`.
 #[inline(always)]
 pub fn brick_of(v: Voxel) -> Voxel {
@@ -107,7 +117,10 @@ fn local_bit(v: Voxel) -> (usize, u64) {
 /// ```
 #[derive(Clone, Default)]
 pub struct BrickGrid {
-    slots: HashMap<Voxel, u32, FxBuild>,
+    /// Brick coordinate → slot, built on first use: a grid assembled from
+    /// unique bricks and then only iterated or written out (the surface
+    /// voxelizer's result) never pays for it.
+    slots: OnceLock<HashMap<Voxel, u32, FxBuild>>,
     keys: Vec<Voxel>,
     masks: Vec<BrickMask>,
     /// Last brick touched by a write: (brick coordinate, slot).
@@ -147,7 +160,10 @@ impl BrickGrid {
     /// An empty grid with room for `bricks` bricks.
     pub fn with_capacity(bricks: usize) -> Self {
         BrickGrid {
-            slots: HashMap::with_capacity_and_hasher(bricks, FxBuild::default()),
+            slots: OnceLock::from(HashMap::with_capacity_and_hasher(
+                bricks,
+                FxBuild::default(),
+            )),
             keys: Vec::with_capacity(bricks),
             masks: Vec::with_capacity(bricks),
             last: None,
@@ -163,7 +179,7 @@ impl BrickGrid {
             return s as usize;
         }
         let next = self.keys.len() as u32;
-        let s = *self.slots.entry(b).or_insert(next);
+        let s = *self.index_mut().entry(b).or_insert(next);
         if s == next {
             self.keys.push(b);
             self.masks.push([0; 8]);
@@ -187,7 +203,7 @@ impl BrickGrid {
     /// empty is released.
     pub fn remove(&mut self, v: Voxel) -> bool {
         let b = brick_of(v);
-        let Some(&s) = self.slots.get(&b) else {
+        let Some(&s) = self.index().get(&b) else {
             return false;
         };
         let s = s as usize;
@@ -195,11 +211,12 @@ impl BrickGrid {
         let was = self.masks[s][w] & m != 0;
         self.masks[s][w] &= !m;
         if self.masks[s] == [0; 8] {
-            self.slots.remove(&b);
+            self.index_mut().remove(&b);
             self.keys.swap_remove(s);
             self.masks.swap_remove(s);
             if s < self.keys.len() {
-                self.slots.insert(self.keys[s], s as u32);
+                let moved = self.keys[s];
+                self.index_mut().insert(moved, s as u32);
             }
             self.last = None;
         }
@@ -226,7 +243,7 @@ impl BrickGrid {
     /// The mask of brick `b` (brick coordinates), if it is stored.
     #[inline]
     pub fn brick(&self, b: Voxel) -> Option<&BrickMask> {
-        self.slots.get(&b).map(|&s| &self.masks[s as usize])
+        self.index().get(&b).map(|&s| &self.masks[s as usize])
     }
 
     /// ORs a whole mask into brick `b` (brick coordinates). An all-zero mask
@@ -238,6 +255,38 @@ impl BrickGrid {
         let s = self.slot_or_insert(b);
         for (d, m) in self.masks[s].iter_mut().zip(mask) {
             *d |= m;
+        }
+    }
+
+    /// The brick index, built from `keys` on first use.
+    #[inline]
+    fn index(&self) -> &HashMap<Voxel, u32, FxBuild> {
+        self.slots.get_or_init(|| index_of(&self.keys))
+    }
+
+    /// The brick index for changes, built from `keys` on first use.
+    #[inline]
+    fn index_mut(&mut self) -> &mut HashMap<Voxel, u32, FxBuild> {
+        if self.slots.get().is_none() {
+            let built = index_of(&self.keys);
+            self.slots = OnceLock::from(built);
+        }
+        self.slots.get_mut().expect("the index was just built")
+    }
+
+    /// A grid taking over parallel arrays of brick coordinates and masks
+    /// that the caller guarantees to hold every brick exactly once and no
+    /// empty mask (checked in debug builds): no pass over the bricks, and
+    /// the index is built only if a lookup or change needs it.
+    pub(crate) fn from_unique_parts(keys: Vec<Voxel>, masks: Vec<BrickMask>) -> Self {
+        assert_eq!(keys.len(), masks.len(), "one mask per brick coordinate");
+        debug_assert!(!masks.contains(&[0; 8]), "an empty brick mask");
+        debug_assert_eq!(index_of(&keys).len(), keys.len(), "a repeated brick");
+        BrickGrid {
+            slots: OnceLock::new(),
+            keys,
+            masks,
+            last: None,
         }
     }
 
@@ -284,7 +333,7 @@ impl BrickGrid {
                 });
             }
         }
-        g.slots = slots;
+        g.slots = OnceLock::from(slots);
         g.keys = keys;
         g.masks = masks;
         g
@@ -318,7 +367,7 @@ impl BrickGrid {
         self.masks.capacity() * size_of::<BrickMask>()
             + self.keys.capacity() * size_of::<Voxel>()
             // hashbrown: key + value + 1 control byte per bucket.
-            + self.slots.capacity() * (size_of::<Voxel>() + size_of::<u32>() + 1)
+            + self.slots.get().map_or(0, HashMap::capacity) * (size_of::<Voxel>() + size_of::<u32>() + 1)
     }
 
     /// Stored bricks as (brick coordinate, mask), in storage order (not
@@ -358,7 +407,7 @@ impl BrickGrid {
 
     /// Adds every voxel of `other` (set union), brick by brick.
     pub fn union_with(&mut self, other: &BrickGrid) {
-        self.slots.reserve(other.keys.len());
+        self.index_mut().reserve(other.keys.len());
         for (k, m) in other.bricks() {
             self.or_brick(k, m);
         }
@@ -527,6 +576,32 @@ impl FromIterator<Voxel> for BrickGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn unique_parts_build_their_index_on_first_lookup_or_change() {
+        let b = |x, y, z| Voxel::new(x, y, z);
+        let one = [1, 0, 0, 0, 0, 0, 0, 0];
+        let keys = vec![b(0, 0, 0), b(-1, 2, 3), b(4, 0, 0)];
+        let fresh = || BrickGrid::from_unique_parts(keys.clone(), vec![one; 3]);
+        // Lookups.
+        let g = fresh();
+        assert!(g.slots.get().is_none());
+        assert!(g.contains(Voxel::new(-8, 16, 24)) && !g.contains(Voxel::new(1, 0, 0)));
+        assert!(g.slots.get().is_some());
+        // Changes: an insert into a stored brick must not add a second copy,
+        // a removal that empties a brick must keep the others findable.
+        let mut g = fresh();
+        assert!(g.insert(Voxel::new(1, 0, 0)));
+        assert_eq!((g.brick_count(), g.count()), (3, 4));
+        let mut g = fresh();
+        assert!(g.remove(Voxel::new(0, 0, 0)));
+        assert_eq!(g.brick_count(), 2);
+        assert!(g.contains(Voxel::new(32, 0, 0)) && g.contains(Voxel::new(-8, 16, 24)));
+        // Iteration and counts need no index.
+        let g = fresh();
+        assert_eq!(g.iter().count(), 3);
+        assert!(g.slots.get().is_none());
+    }
 
     #[test]
     fn from_bricks_equals_inserting_and_merges_repeats() {

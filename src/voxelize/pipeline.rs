@@ -564,7 +564,8 @@ fn bricks_to_grid(lists: Vec<BrickList>) -> BrickGrid {
             masks.push(bits);
         }
     }
-    BrickGrid::from_parts(keys, masks)
+    // The slabs are disjoint and each lists its bricks once, none empty.
+    BrickGrid::from_unique_parts(keys, masks)
 }
 
 /// The exact conservative set of reference triangles, restricted to the grid
