@@ -13,8 +13,8 @@
 //! holds up to 512 voxels.
 
 use std::collections::HashMap;
-use std::sync::OnceLock;
 use std::hash::{BuildHasherDefault, Hasher};
+use std::sync::OnceLock;
 
 use super::{BitGrid, DenseGrid, Dims, MemoryLimit, Voxel};
 use crate::error::{Result, VoxkitError};
