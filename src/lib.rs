@@ -30,6 +30,7 @@ pub mod cli;
 pub mod error;
 pub mod fixed;
 pub mod grid;
+mod hint;
 pub mod io;
 pub mod line;
 pub mod mesh;

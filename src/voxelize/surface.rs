@@ -738,7 +738,7 @@ pub fn voxelize_surface_slabs(
                 // The slab's triangles are in spatial order, not memory
                 // order: fetch a few ahead so their loads overlap.
                 if let Some(&ahead) = slab.triangles.get(k + PREFETCH_AHEAD) {
-                    prefetch(&triangles[ahead as usize]);
+                    prefetch_triangle(&triangles[ahead as usize]);
                 }
                 let tri = &triangles[t as usize];
                 // Most triangles lie well inside the grid: small ones are
@@ -780,23 +780,12 @@ pub fn voxelize_surface_slabs(
 /// How many triangles ahead the slab loop prefetches.
 const PREFETCH_AHEAD: usize = 8;
 
-/// Hints the CPU to bring `tri` into the cache (both lines it may span).
+/// Hints the CPU to fetch `tri` (both cache lines it may span).
 #[inline(always)]
-fn prefetch(tri: &SurfaceTriangle) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        let p = (tri as *const SurfaceTriangle).cast::<i8>();
-        let last = p.wrapping_add(std::mem::size_of::<SurfaceTriangle>() - 1);
-        // SAFETY: the only requirement is SSE, which every x86-64 CPU has
-        // (it is in the baseline target); a prefetch never faults.
-        unsafe {
-            _mm_prefetch::<_MM_HINT_T0>(p);
-            _mm_prefetch::<_MM_HINT_T0>(last);
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = tri;
+fn prefetch_triangle(tri: &SurfaceTriangle) {
+    let p = (tri as *const SurfaceTriangle).cast::<u8>();
+    crate::hint::prefetch(p);
+    crate::hint::prefetch(p.wrapping_add(std::mem::size_of::<SurfaceTriangle>() - 1));
 }
 
 /// Every crossing of `tri` in the families of `mode`.

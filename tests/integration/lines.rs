@@ -276,6 +276,77 @@ fn in_grid_voxels(it: impl Iterator<Item = IVec3>, dims: [usize; 3]) -> Vec<IVec
     it.filter(|v| b.contains(*v)).collect()
 }
 
+/// Grids of 2 MiB and more are walked with a lookahead queue (the visitor
+/// runs 32 voxels behind the stepping, which prefetches): the visits must
+/// be those of the iterator, in order, each once, and a visitor that stops
+/// must stop the walk at its voxel with no later cell touched — for lines
+/// shorter and longer than the queue, partly outside the grid.
+#[test]
+fn walk_with_lookahead_on_a_large_grid_visits_in_order_and_stops_where_asked() {
+    let dims = [160, 128, 64];
+    let mut grid = DenseGrid::new(dims, 0u32, MemoryLimit::DEFAULT).unwrap();
+    assert!(
+        grid.len() * 4 >= 2 << 20,
+        "the grid must take the lookahead path"
+    );
+    let mut rng = ChaCha8Rng::seed_from_u64(78);
+    let centre = [fx(80.0), fx(64.0), fx(32.0)];
+    for i in 0..1500 {
+        let span = [2, 20, 90][i % 3];
+        let seg = random_segment(&mut rng, span);
+        let seg = Segment::from_fixed(
+            std::array::from_fn(|k| seg.a()[k] + centre[k]),
+            std::array::from_fn(|k| seg.b()[k] + centre[k]),
+        )
+        .unwrap();
+        for conn in [
+            Connectivity::Six,
+            Connectivity::Eighteen,
+            Connectivity::TwentySix,
+        ] {
+            let expect = match conn {
+                Connectivity::Six => in_grid_voxels(Tripod6::new(&seg), dims),
+                Connectivity::Eighteen => in_grid_voxels(Line18::new(&seg), dims),
+                Connectivity::TwentySix => in_grid_voxels(Line26::new(&seg), dims),
+            };
+            // Stop at visit `stop` (none when it is past the end).
+            let stop = rng.random_range(1..=expect.len() + 1);
+            let mut n = 0usize;
+            let out = walk_mut(&mut grid, &seg, conn, |c| {
+                n += 1;
+                *c = n as u32;
+                if n == stop {
+                    ControlFlow::Break(())
+                } else {
+                    ControlFlow::Continue(())
+                }
+            });
+            if stop <= expect.len() {
+                assert_eq!(
+                    out.stopped_at(),
+                    Some(expect[stop - 1]),
+                    "{conn:?} {seg:?} stop {stop}"
+                );
+            } else {
+                assert_eq!(
+                    out,
+                    WalkOutcome::Completed {
+                        visited: expect.len() as u64
+                    },
+                    "{conn:?} {seg:?}"
+                );
+            }
+            for (k, v) in expect.iter().enumerate() {
+                let want = if k < stop { k as u32 + 1 } else { 0 };
+                let cell = grid.get_mut(*v).unwrap();
+                assert_eq!(*cell, want, "{conn:?} {seg:?} #{k} stop {stop}");
+                *cell = 0;
+            }
+            assert_eq!(n, stop.min(expect.len()), "{conn:?} {seg:?}");
+        }
+    }
+}
+
 #[test]
 fn walk_matches_iterator_in_grid() {
     let dims = [13, 9, 7];
