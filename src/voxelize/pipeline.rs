@@ -552,18 +552,29 @@ fn ms(d: std::time::Duration) -> f64 {
 }
 
 /// The surface driver's brick lists (each brick exactly once over all
-/// lists) as a [`BrickGrid`], copying every brick once into arrays sized up
-/// front.
+/// lists) as a [`BrickGrid`]: every brick is copied once into arrays sized
+/// up front, the lists in parallel into their own ranges (the copy's cost
+/// is mostly first touches of fresh pages, which then fault on every core
+/// at once instead of on one).
 fn bricks_to_grid(lists: Vec<BrickList>) -> BrickGrid {
     let total = lists.iter().map(Vec::len).sum();
-    let mut keys = Vec::with_capacity(total);
-    let mut masks = Vec::with_capacity(total);
+    // Zeroed allocations: fresh zero pages, mapped on first write.
+    let mut keys = vec![Voxel::ZERO; total];
+    let mut masks = vec![[0u64; 8]; total];
+    let mut parts = Vec::with_capacity(lists.len());
+    let (mut key_rest, mut mask_rest) = (keys.as_mut_slice(), masks.as_mut_slice());
     for list in lists {
-        for (corner, bits) in list {
-            keys.push(Voxel::from_array(corner) >> 3);
-            masks.push(bits);
-        }
+        let (k, kr) = key_rest.split_at_mut(list.len());
+        let (m, mr) = mask_rest.split_at_mut(list.len());
+        (key_rest, mask_rest) = (kr, mr);
+        parts.push((list, k, m));
     }
+    parts.into_par_iter().for_each(|(list, k, m)| {
+        for (((corner, bits), key), mask) in list.into_iter().zip(k).zip(m) {
+            *key = Voxel::from_array(corner) >> 3;
+            *mask = bits;
+        }
+    });
     // The slabs are disjoint and each lists its bricks once, none empty.
     BrickGrid::from_unique_parts(keys, masks)
 }
