@@ -1,6 +1,5 @@
-//! Cache hints for the hot loops whose memory order is not their access
-//! order (surface slabs walk triangles spatially; large-grid line walks run
-//! ahead of their visits).
+//! Cache hints for hot loops whose access order is not memory order (the
+//! surface slabs walk their triangles spatially).
 
 /// Hints the CPU to fetch the cache line holding `p` into all cache
 /// levels. A hint only: it never faults, whatever `p` is, and is a no-op

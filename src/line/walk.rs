@@ -9,7 +9,6 @@
 use std::ops::ControlFlow;
 
 use crate::grid::{DenseGrid, Voxel};
-use crate::hint::prefetch;
 use crate::metric::Connectivity;
 
 use super::clip::{GridBox, tripod_range};
@@ -352,9 +351,7 @@ fn outcome<T>(grid: &DenseGrid<T>, r: Result<u64, usize>) -> WalkOutcome {
 
 /// Walks the `conn`-connected line of `seg` (26: [`super::Line26`],
 /// 18: [`super::Line18`], 6: [`super::Tripod6`]) through `grid`, calling
-/// `visit` on each in-grid cell in order until it returns `Break`. On grids
-/// of 2 MiB and more the stepping runs 32 voxels ahead of the visits and
-/// prefetches their cells (same visits, same order).
+/// `visit` on each in-grid cell in order until it returns `Break`.
 ///
 /// ```
 /// use std::ops::ControlFlow;
@@ -377,7 +374,6 @@ pub fn walk_mut<T>(
 ) -> WalkOutcome {
     let shape = GridShape::of(grid);
     let len = grid.len();
-    let far = needs_lookahead::<T>(len);
     let ptr = grid.as_mut_slice().as_mut_ptr();
     let mut by_index = |i: usize| {
         debug_assert!(i < len, "walk left the grid: index {i} of {len}");
@@ -388,87 +384,8 @@ pub fn walk_mut<T>(
         // reference to the cells exists while the walk runs.
         visit(unsafe { &mut *ptr.add(i) })
     };
-    let r = if far {
-        let mut late = Lookahead::new(|i: usize| prefetch(ptr.wrapping_add(i)), &mut by_index);
-        let r = dispatch(shape, seg, conn, &mut |i| late.push(i));
-        late.finish(r)
-    } else {
-        dispatch(shape, seg, conn, &mut by_index)
-    };
+    let r = dispatch(shape, seg, conn, &mut by_index);
     outcome(grid, r)
-}
-
-/// Grids at least this large (bytes) are walked with [`Lookahead`]: beyond
-/// the per-core L2 cache, a visit that misses costs more than the steps
-/// around it.
-const LOOKAHEAD_MIN_BYTES: usize = 2 << 20;
-
-/// Lookahead distance in voxels (a power of two): a memory access takes a
-/// few hundred cycles, a step a few.
-const LOOKAHEAD: usize = 32;
-
-fn needs_lookahead<T>(cells: usize) -> bool {
-    cells.saturating_mul(std::mem::size_of::<T>()) >= LOOKAHEAD_MIN_BYTES
-}
-
-/// A visitor adaptor that runs [`LOOKAHEAD`] voxels behind the walk: each
-/// index the walk produces is prefetched and queued, and the wrapped
-/// visitor sees it (in order, exactly once) when the walk is that far
-/// ahead, or at the end. The stepping never reads cells, so running ahead
-/// changes nothing but timing: cells are in cache by the time they are
-/// visited, where a plain walk waits on each miss in turn (a store-bound
-/// loop stalls once the store buffer fills).
-struct Lookahead<'v, P, V> {
-    prefetch: P,
-    visit: &'v mut V,
-    queue: [usize; LOOKAHEAD],
-    queued: usize,
-    /// Where the wrapped visitor stopped, if it did.
-    stopped: Option<usize>,
-}
-
-impl<'v, P: FnMut(usize), V: FnMut(usize) -> ControlFlow<()>> Lookahead<'v, P, V> {
-    fn new(prefetch: P, visit: &'v mut V) -> Self {
-        Lookahead {
-            prefetch,
-            visit,
-            queue: [0; LOOKAHEAD],
-            queued: 0,
-            stopped: None,
-        }
-    }
-
-    /// Ends a walk that called [`Lookahead::push`] instead of the visitor
-    /// and returned `r`: visits what is still queued; the result is as if
-    /// the walk had called the visitor directly.
-    fn finish(self, r: Result<u64, usize>) -> Result<u64, usize> {
-        if let Some(i) = self.stopped {
-            return Err(i);
-        }
-        let first = self.queued.saturating_sub(LOOKAHEAD);
-        for k in first..self.queued {
-            let i = self.queue[k % LOOKAHEAD];
-            if (self.visit)(i).is_break() {
-                return Err(i);
-            }
-        }
-        r
-    }
-
-    /// The walk's visitor: queues `i` and visits the index due.
-    #[inline(always)]
-    fn push(&mut self, i: usize) -> ControlFlow<()> {
-        (self.prefetch)(i);
-        let slot = &mut self.queue[self.queued % LOOKAHEAD];
-        let due = std::mem::replace(slot, i);
-        let full = self.queued >= LOOKAHEAD;
-        self.queued += 1;
-        if full && (self.visit)(due).is_break() {
-            self.stopped = Some(due);
-            return ControlFlow::Break(());
-        }
-        ControlFlow::Continue(())
-    }
 }
 
 /// Read-only [`walk_mut`], for ray casting: `visit` sees each in-grid cell in

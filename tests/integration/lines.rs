@@ -276,39 +276,45 @@ fn in_grid_voxels(it: impl Iterator<Item = IVec3>, dims: [usize; 3]) -> Vec<IVec
     it.filter(|v| b.contains(*v)).collect()
 }
 
-/// Grids of 2 MiB and more are walked with a lookahead queue (the visitor
-/// runs 32 voxels behind the stepping, which prefetches): the visits must
-/// be those of the iterator, in order, each once, and a visitor that stops
-/// must stop the walk at its voxel with no later cell touched — for lines
-/// shorter and longer than the queue, partly outside the grid.
+const CONNECTIVITIES: [Connectivity; 3] = [
+    Connectivity::Six,
+    Connectivity::Eighteen,
+    Connectivity::TwentySix,
+];
+
+/// `seg` moved by `by` (fixed point).
+fn shifted(seg: &Segment, by: [i64; 3]) -> Segment {
+    Segment::from_fixed(
+        std::array::from_fn(|k| seg.a()[k] + by[k]),
+        std::array::from_fn(|k| seg.b()[k] + by[k]),
+    )
+    .unwrap()
+}
+
+/// The in-grid voxels of the `conn` line of `seg`, by its iterator.
+fn line_in_grid(seg: &Segment, conn: Connectivity, dims: [usize; 3]) -> Vec<IVec3> {
+    match conn {
+        Connectivity::Six => in_grid_voxels(Tripod6::new(seg), dims),
+        Connectivity::Eighteen => in_grid_voxels(Line18::new(seg), dims),
+        Connectivity::TwentySix => in_grid_voxels(Line26::new(seg), dims),
+    }
+}
+
+/// On a grid far larger than the caches (5 MB), the walk's visits are those
+/// of the iterator, in order, each once, and a visitor that stops stops the
+/// walk at its voxel with no later cell touched — for short and long lines,
+/// partly outside the grid.
 #[test]
-fn walk_with_lookahead_on_a_large_grid_visits_in_order_and_stops_where_asked() {
+fn walk_on_a_large_grid_visits_in_order_and_stops_where_asked() {
     let dims = [160, 128, 64];
     let mut grid = DenseGrid::new(dims, 0u32, MemoryLimit::DEFAULT).unwrap();
-    assert!(
-        grid.len() * 4 >= 2 << 20,
-        "the grid must take the lookahead path"
-    );
     let mut rng = ChaCha8Rng::seed_from_u64(78);
     let centre = [fx(80.0), fx(64.0), fx(32.0)];
     for i in 0..1500 {
         let span = [2, 20, 90][i % 3];
-        let seg = random_segment(&mut rng, span);
-        let seg = Segment::from_fixed(
-            std::array::from_fn(|k| seg.a()[k] + centre[k]),
-            std::array::from_fn(|k| seg.b()[k] + centre[k]),
-        )
-        .unwrap();
-        for conn in [
-            Connectivity::Six,
-            Connectivity::Eighteen,
-            Connectivity::TwentySix,
-        ] {
-            let expect = match conn {
-                Connectivity::Six => in_grid_voxels(Tripod6::new(&seg), dims),
-                Connectivity::Eighteen => in_grid_voxels(Line18::new(&seg), dims),
-                Connectivity::TwentySix => in_grid_voxels(Line26::new(&seg), dims),
-            };
+        let seg = shifted(&random_segment(&mut rng, span), centre);
+        for conn in CONNECTIVITIES {
+            let expect = line_in_grid(&seg, conn, dims);
             // Stop at visit `stop` (none when it is past the end).
             let stop = rng.random_range(1..=expect.len() + 1);
             let mut n = 0usize;
@@ -353,24 +359,10 @@ fn walk_matches_iterator_in_grid() {
     let mut grid = DenseGrid::new(dims, 0u32, MemoryLimit::DEFAULT).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(77);
     for i in 0..3000 {
-        let mut seg = random_segment(&mut rng, 10);
         // shift into a region around the grid
-        let shift = [fx(6.0), fx(4.0), fx(3.0)];
-        seg = Segment::from_fixed(
-            std::array::from_fn(|k| seg.a()[k] + shift[k]),
-            std::array::from_fn(|k| seg.b()[k] + shift[k]),
-        )
-        .unwrap();
-        for conn in [
-            Connectivity::Six,
-            Connectivity::Eighteen,
-            Connectivity::TwentySix,
-        ] {
-            let expect = match conn {
-                Connectivity::Six => in_grid_voxels(Tripod6::new(&seg), dims),
-                Connectivity::Eighteen => in_grid_voxels(Line18::new(&seg), dims),
-                Connectivity::TwentySix => in_grid_voxels(Line26::new(&seg), dims),
-            };
+        let seg = shifted(&random_segment(&mut rng, 10), [fx(6.0), fx(4.0), fx(3.0)]);
+        for conn in CONNECTIVITIES {
+            let expect = line_in_grid(&seg, conn, dims);
             // walk_mut writes a sequence number into each visited cell
             grid.as_mut_slice().fill(0);
             let mut n = 0u32;
