@@ -558,7 +558,9 @@ fn ms(d: std::time::Duration) -> f64 {
 /// at once instead of on one).
 fn bricks_to_grid(lists: Vec<BrickList>) -> BrickGrid {
     let total = lists.iter().map(Vec::len).sum();
-    // Zeroed allocations: fresh zero pages, mapped on first write.
+    // The masks (64 bytes a brick) come from a zeroed allocation: fresh
+    // zero pages, mapped on first write by the parallel copy. The keys (12
+    // bytes a brick, not a type `vec!` knows to be zero) are filled here.
     let mut keys = vec![Voxel::ZERO; total];
     let mut masks = vec![[0u64; 8]; total];
     let mut parts = Vec::with_capacity(lists.len());
