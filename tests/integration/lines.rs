@@ -300,6 +300,46 @@ fn line_in_grid(seg: &Segment, conn: Connectivity, dims: [usize; 3]) -> Vec<IVec
     }
 }
 
+/// Runs `walk_mut` with a visitor that writes its visit number (from 1)
+/// into each cell and stops at visit `stop`, on a grid that is zero along
+/// the line, and checks it against `expect` (the iterator's in-grid
+/// voxels): the outcome, the numbers of the visited cells, and that no
+/// later cell was touched. The numbers stay in the grid.
+fn numbered_walk(
+    grid: &mut DenseGrid<u32>,
+    seg: &Segment,
+    conn: Connectivity,
+    expect: &[IVec3],
+    stop: usize,
+) {
+    let mut n = 0usize;
+    let out = walk_mut(grid, seg, conn, |c| {
+        n += 1;
+        *c = n as u32;
+        if n == stop {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    });
+    if stop <= expect.len() {
+        assert_eq!(
+            out.stopped_at(),
+            Some(expect[stop - 1]),
+            "{conn:?} {seg:?} stop {stop}"
+        );
+    } else {
+        let visited = expect.len() as u64;
+        assert_eq!(out, WalkOutcome::Completed { visited }, "{conn:?} {seg:?}");
+    }
+    for (k, v) in expect.iter().enumerate() {
+        let want = if k < stop { k as u32 + 1 } else { 0 };
+        let got = *grid.get(*v).unwrap();
+        assert_eq!(got, want, "{conn:?} {seg:?} #{k} stop {stop}");
+    }
+    assert_eq!(n, stop.min(expect.len()), "{conn:?} {seg:?}");
+}
+
 /// On a grid far larger than the caches (5 MB), the walk's visits are those
 /// of the iterator, in order, each once, and a visitor that stops stops the
 /// walk at its voxel with no later cell touched — for short and long lines,
@@ -317,38 +357,10 @@ fn walk_on_a_large_grid_visits_in_order_and_stops_where_asked() {
             let expect = line_in_grid(&seg, conn, dims);
             // Stop at visit `stop` (none when it is past the end).
             let stop = rng.random_range(1..=expect.len() + 1);
-            let mut n = 0usize;
-            let out = walk_mut(&mut grid, &seg, conn, |c| {
-                n += 1;
-                *c = n as u32;
-                if n == stop {
-                    ControlFlow::Break(())
-                } else {
-                    ControlFlow::Continue(())
-                }
-            });
-            if stop <= expect.len() {
-                assert_eq!(
-                    out.stopped_at(),
-                    Some(expect[stop - 1]),
-                    "{conn:?} {seg:?} stop {stop}"
-                );
-            } else {
-                assert_eq!(
-                    out,
-                    WalkOutcome::Completed {
-                        visited: expect.len() as u64
-                    },
-                    "{conn:?} {seg:?}"
-                );
+            numbered_walk(&mut grid, &seg, conn, &expect, stop);
+            for v in &expect {
+                *grid.get_mut(*v).unwrap() = 0;
             }
-            for (k, v) in expect.iter().enumerate() {
-                let want = if k < stop { k as u32 + 1 } else { 0 };
-                let cell = grid.get_mut(*v).unwrap();
-                assert_eq!(*cell, want, "{conn:?} {seg:?} #{k} stop {stop}");
-                *cell = 0;
-            }
-            assert_eq!(n, stop.min(expect.len()), "{conn:?} {seg:?}");
         }
     }
 }
@@ -363,28 +375,8 @@ fn walk_matches_iterator_in_grid() {
         let seg = shifted(&random_segment(&mut rng, 10), [fx(6.0), fx(4.0), fx(3.0)]);
         for conn in CONNECTIVITIES {
             let expect = line_in_grid(&seg, conn, dims);
-            // walk_mut writes a sequence number into each visited cell
             grid.as_mut_slice().fill(0);
-            let mut n = 0u32;
-            let out = walk_mut(&mut grid, &seg, conn, |c| {
-                n += 1;
-                *c = n;
-                ControlFlow::Continue(())
-            });
-            assert_eq!(
-                out,
-                WalkOutcome::Completed {
-                    visited: expect.len() as u64
-                },
-                "{conn:?} {seg:?}"
-            );
-            for (k, v) in expect.iter().enumerate() {
-                assert_eq!(
-                    *grid.get(*v).unwrap(),
-                    k as u32 + 1,
-                    "{conn:?} {seg:?} #{k}"
-                );
-            }
+            numbered_walk(&mut grid, &seg, conn, &expect, expect.len() + 1);
             // the read-only walk in order, and the clipped iterators
             let mut seen = Vec::new();
             walk(&grid, &seg, conn, |c| {
