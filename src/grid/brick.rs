@@ -267,11 +267,8 @@ impl BrickGrid {
     /// The brick index for changes, built from `keys` on first use.
     #[inline]
     fn index_mut(&mut self) -> &mut HashMap<Voxel, u32, FxBuild> {
-        if self.slots.get().is_none() {
-            let built = index_of(&self.keys);
-            self.slots = OnceLock::from(built);
-        }
-        self.slots.get_mut().expect("the index was just built")
+        self.slots.get_or_init(|| index_of(&self.keys));
+        self.slots.get_mut().expect("initialised on the line above")
     }
 
     /// A grid taking over parallel arrays of brick coordinates and masks

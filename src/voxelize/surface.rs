@@ -870,17 +870,16 @@ impl SlabPlan {
         };
         // Per-triangle z range and weight in parallel; the rest is a few
         // passes over layers and slabs.
-        let ranges: Vec<((i32, i32), f64)> = triangles
-            .par_iter()
-            .map(|tri| (z_range(tri), weight(tri)))
-            .collect();
         // Locality: each slab walks its triangles in Morton order of their
         // min brick, so consecutive triangles mostly write the same few
         // bricks (slab table cells and arena entries stay in cache); the
         // mesh's own order can jump anywhere.
-        let keys: Vec<u32> = triangles.par_iter().map(brick_morton).collect();
+        let ranges: Vec<((i32, i32), f64, u32)> = triangles
+            .par_iter()
+            .map(|tri| (z_range(tri), weight(tri), brick_morton(tri)))
+            .collect();
         let mut per_layer = vec![0f64; nz as usize + 1];
-        for &((lo, hi), w) in &ranges {
+        for &((lo, hi), w, _) in &ranges {
             let w = w / (hi - lo + 1) as f64;
             per_layer[lo as usize] += w;
             per_layer[hi as usize + 1] -= w;
@@ -918,7 +917,7 @@ impl SlabPlan {
                 triangles: Vec::new(),
             })
             .collect();
-        for (t, &((lo, hi), _)) in ranges.iter().enumerate() {
+        for (t, &((lo, hi), _, _)) in ranges.iter().enumerate() {
             let first = cuts.partition_point(|&c| c <= lo) - 1;
             for slab in &mut slabs[first..] {
                 if slab.z0 > hi {
@@ -931,7 +930,7 @@ impl SlabPlan {
             let mut keyed: Vec<u64> = slab
                 .triangles
                 .iter()
-                .map(|&t| (keys[t as usize] as u64) << 32 | t as u64)
+                .map(|&t| (ranges[t as usize].2 as u64) << 32 | t as u64)
                 .collect();
             keyed.sort_unstable();
             for (t, k) in slab.triangles.iter_mut().zip(keyed) {
@@ -944,7 +943,9 @@ impl SlabPlan {
 
 /// The Morton code (bits of x, y, z interleaved, x lowest) of the brick
 /// holding the triangle's min corner, clamped to the 2^10 bricks per axis
-/// the code has room for (grids are at most 2^13 voxels per axis).
+/// the code has room for: on grids beyond 8192 voxels per axis, the far
+/// bricks share codes, which only loosens the order (it is a cache
+/// heuristic; any order gives the same voxels).
 fn brick_morton(tri: &SurfaceTriangle) -> u32 {
     /// Spreads the low 10 bits of `v` to every third bit.
     fn spread(v: u32) -> u32 {
