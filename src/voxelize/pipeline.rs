@@ -59,6 +59,7 @@ use rayon::prelude::*;
 
 use crate::error::{Result, VoxkitError};
 use crate::fixed::FRAC_BITS;
+use crate::grid::brick::BrickMask;
 use crate::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
 use crate::line::{Line26, Segment, Tripod6};
 use crate::mesh::{Mesh, fit_frame, fitted_voxel};
@@ -555,16 +556,18 @@ fn ms(d: std::time::Duration) -> f64 {
 /// lists) as a [`BrickGrid`]: every brick is copied once into arrays sized
 /// up front, the lists in parallel into their own ranges (the copy's cost
 /// is mostly first touches of fresh pages, which then fault on every core
-/// at once instead of on one).
+/// at once instead of on one). The arrays are not zeroed first: written
+/// once, in full, they are the kind of buffer [`crate::alloc::HugePageAlloc`]
+/// maps with huge pages.
 fn bricks_to_grid(lists: Vec<BrickList>) -> BrickGrid {
     let total = lists.iter().map(Vec::len).sum();
-    // The masks (64 bytes a brick) come from a zeroed allocation: fresh
-    // zero pages, mapped on first write by the parallel copy. The keys (12
-    // bytes a brick, not a type `vec!` knows to be zero) are filled here.
-    let mut keys = vec![Voxel::ZERO; total];
-    let mut masks = vec![[0u64; 8]; total];
+    let mut keys: Vec<Voxel> = Vec::with_capacity(total);
+    let mut masks: Vec<BrickMask> = Vec::with_capacity(total);
     let mut parts = Vec::with_capacity(lists.len());
-    let (mut key_rest, mut mask_rest) = (keys.as_mut_slice(), masks.as_mut_slice());
+    let (mut key_rest, mut mask_rest) = (
+        &mut keys.spare_capacity_mut()[..total],
+        &mut masks.spare_capacity_mut()[..total],
+    );
     for list in lists {
         let (k, kr) = key_rest.split_at_mut(list.len());
         let (m, mr) = mask_rest.split_at_mut(list.len());
@@ -573,10 +576,19 @@ fn bricks_to_grid(lists: Vec<BrickList>) -> BrickGrid {
     }
     parts.into_par_iter().for_each(|(list, k, m)| {
         for (((corner, bits), key), mask) in list.into_iter().zip(k).zip(m) {
-            *key = Voxel::from_array(corner) >> 3;
-            *mask = bits;
+            key.write(Voxel::from_array(corner) >> 3);
+            mask.write(bits);
         }
     });
+    // SAFETY: the parts tile `0..total` of both spare capacities (each
+    // takes the next `list.len()` slots, and `total` is the sum of those
+    // lengths), and every part writes each of its slots: the zipped
+    // iterators all have the list's length. `Voxel` and `BrickMask` have
+    // no drop glue, so nothing is lost if a panic unwinds before this.
+    unsafe {
+        keys.set_len(total);
+        masks.set_len(total);
+    }
     // The slabs are disjoint and each lists its bricks once, none empty.
     BrickGrid::from_unique_parts(keys, masks)
 }
