@@ -113,6 +113,17 @@ impl LineFamily {
     }
 }
 
+/// [`family_voxel`] of a row's lattice point: `(i, j, t)`, or with `T`
+/// (a row scanned along v) `(j, i, t)`.
+#[inline(always)]
+fn row_voxel<const F: u8, const T: bool>(i: i64, j: i64, t: i64) -> Voxel {
+    if T {
+        family_voxel::<F>(j, i, t)
+    } else {
+        family_voxel::<F>(i, j, t)
+    }
+}
+
 /// [`LineFamily::to_voxel`] for the family with code `F`, resolved at compile
 /// time so the per-voxel path has no branch on the family.
 #[inline(always)]
@@ -229,7 +240,22 @@ fn crossings_from<const F: u8>(
     // The family's voxel map is linear: map the origin once.
     let base = family_voxel::<F>(origin[0], origin[1], origin[2]);
     if span <= MAX_TRIANGLE_SPAN {
-        crossings_local::<i64>(l, n, &mut |row| sink.row::<F>(base, row));
+        // Rows cost a set-up each and crossings the same either way: scan
+        // along whichever of u and v gives fewer rows. Scanning along v is
+        // the kernel on (v, u, t), whose normal is −(b, a, c) (swapping two
+        // coordinates flips the cross product).
+        let rows = |a: usize| {
+            let lo = l[0][a].min(l[1][a]).min(l[2][a]);
+            let hi = l[0][a].max(l[1][a]).max(l[2][a]);
+            (hi >> VOXEL_FRAC_BITS) + ((-lo) >> VOXEL_FRAC_BITS)
+        };
+        if rows(0) < rows(1) {
+            let swapped = l.map(|q| [q[1], q[0], q[2]]);
+            let n = [-n[1], -n[0], -n[2]];
+            crossings_local::<i64>(&swapped, n, &mut |row| sink.row::<F, true>(base, row));
+        } else {
+            crossings_local::<i64>(l, n, &mut |row| sink.row::<F, false>(base, row));
+        }
     } else {
         for [i, j, t] in crossings_wide(l) {
             sink.voxel(family_voxel::<F>(i, j, t) + base);
@@ -291,11 +317,12 @@ trait CrossingSink {
     fn voxel(&mut self, v: Voxel);
 
     /// Takes the crossings of `row` of family `F`, offset by `base` (grid
-    /// voxel of the local origin); by default one voxel at a time.
+    /// voxel of the local origin), with the row's coordinates swapped when
+    /// `T` (see [`row_voxel`]); by default one voxel at a time.
     #[inline(always)]
-    fn row<const F: u8>(&mut self, base: Voxel, row: Row<i64>) {
+    fn row<const F: u8, const T: bool>(&mut self, base: Voxel, row: Row<i64>) {
         let j = row.j;
-        row.for_each(|i, t| self.voxel(family_voxel::<F>(i, j, t) + base));
+        row.for_each(|i, t| self.voxel(row_voxel::<F, T>(i, j, t) + base));
     }
 }
 
@@ -326,18 +353,18 @@ impl CrossingSink for Staging<'_> {
     /// coordinate's bits — with the other bits set to one so the carry runs
     /// through them — instead of recomputing the address from x, y, z.
     #[inline(always)]
-    fn row<const F: u8>(&mut self, base: Voxel, row: Row<i64>) {
+    fn row<const F: u8, const T: bool>(&mut self, base: Voxel, row: Row<i64>) {
         #[inline(always)]
         fn dilate(v: u32, axis: u32) -> u32 {
             (v & 7) << (3 * axis) | (v >> 3 & 3) << (9 + 2 * axis)
         }
         let o = self.origin;
-        let first = family_voxel::<F>(row.lo, row.j, row.t) + base;
+        let first = row_voxel::<F, T>(row.lo, row.j, row.t) + base;
         let first = [first.x - o[0], first.y - o[1], first.z - o[2]];
-        // The family's map is linear: a step moves by map(1, 0, qi) or
-        // map(1, 0, qi + 1), taken modulo the box's 32 voxels.
+        // The family's map is linear: a step moves by the row map of
+        // (1, 0, qi) or (1, 0, qi + 1), taken modulo the box's 32 voxels.
         let step = |dt: i64| {
-            let v = family_voxel::<F>(1, 0, dt);
+            let v = row_voxel::<F, T>(1, 0, dt);
             [v.x, v.y, v.z]
         };
         let (s0, s1) = (step(row.qi), step(row.qi + 1));
@@ -1123,6 +1150,31 @@ mod tests {
             let scale = [1, VOXEL_ONE / 2, VOXEL_ONE][case % 3];
             let extent = [3, 12, 40][case % 4 % 3];
             check(&random_triangle(&mut rng, scale, extent, 1000));
+        }
+    }
+
+    /// The kernel scans along whichever projected axis gives fewer rows:
+    /// slivers long in x, then in y (and their mirror images, which flip
+    /// the orientation the kernel normalizes), for every family.
+    #[test]
+    fn both_scan_directions_match_the_reference() {
+        let o = VOXEL_ONE;
+        for long in [[1, 0], [0, 1]] {
+            for flip in [false, true] {
+                let p = |u: i64, v: i64, z: i64| {
+                    let (x, y) = (u * long[0] + v * long[1], u * long[1] + v * long[0]);
+                    [x, y, z]
+                };
+                let mut tri = [
+                    p(o / 3, o / 5, o / 7),
+                    p(17 * o + o / 2, o + o / 3, 3 * o),
+                    p(9 * o, 3 * o - 1, 5 * o / 2 + 1),
+                ];
+                if flip {
+                    tri.swap(1, 2);
+                }
+                check(&tri);
+            }
         }
     }
 
