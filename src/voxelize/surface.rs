@@ -623,48 +623,47 @@ fn crossings_local<I: KernelInt>(p: &[[I; 3]; 3], n: [I; 3], emit: &mut impl FnM
         return;
     }
     // The long edge AC bounds every row; the short edge is AB up to row
-    // j_mid, then BC (built when reached). Convexity puts them on opposite
-    // sides.
-    let long = edge(q[ia], q[ic], j_lo, long_lower);
-    let (short, j_switch) = if j_lo <= j_mid {
+    // j_mid, then BC. Convexity puts them on opposite sides. The rows run
+    // in (at most) two stretches, one per short edge, so no row tests for
+    // the switch.
+    let mut long = edge(q[ia], q[ic], j_lo, long_lower);
+    let (mut short, mut end) = if j_lo <= j_mid {
         (edge(q[ia], q[ib], j_lo, !long_lower), j_mid + I::ONE)
     } else {
         (edge(q[ib], q[ic], j_lo, !long_lower), j_hi + I::ONE)
     };
-    let (mut lower, mut upper) = if long_lower {
-        (long, short)
-    } else {
-        (short, long)
-    };
     let mut j = j_lo;
     let mut num_j = k0 + j_lo * dj;
-    while j <= j_hi {
-        if j == j_switch {
-            let bc = edge(q[ib], q[ic], j, !long_lower);
-            if long_lower {
-                upper = bc;
+    loop {
+        while j < end {
+            let (lo, hi) = if long_lower {
+                (long.q, short.q)
             } else {
-                lower = bc;
+                (short.q, long.q)
+            };
+            long.step();
+            short.step();
+            if lo <= hi {
+                let (t, r) = (num_j + lo * di).div_rem_floor(den, recip);
+                emit(Row {
+                    j,
+                    lo,
+                    hi,
+                    t,
+                    r,
+                    qi,
+                    ri,
+                    den,
+                });
             }
+            num_j += dj;
+            j += I::ONE;
         }
-        let (lo, hi) = (lower.q, upper.q);
-        lower.step();
-        upper.step();
-        if lo <= hi {
-            let (t, r) = (num_j + lo * di).div_rem_floor(den, recip);
-            emit(Row {
-                j,
-                lo,
-                hi,
-                t,
-                r,
-                qi,
-                ri,
-                den,
-            });
+        if j > j_hi {
+            break;
         }
-        num_j += dj;
-        j += I::ONE;
+        short = edge(q[ib], q[ic], j, !long_lower);
+        end = j_hi + I::ONE;
     }
 }
 
