@@ -288,8 +288,8 @@ impl BrickBox {
     }
 
     /// The box origin (min corner voxel) that holds the voxel box
-    /// `lo..=hi`, if it fits; the box is then ready for [`BrickBox::set`]
-    /// with that origin.
+    /// `lo..=hi`, if it fits; the box, which must be empty (new or just
+    /// merged), is then ready for [`BrickBox::set`] with that origin.
     #[inline]
     pub fn place(&mut self, lo: [i32; 3], hi: [i32; 3]) -> Option<[i32; 3]> {
         let origin = lo.map(|c| c & !(BRICK - 1));
@@ -303,6 +303,22 @@ impl BrickBox {
         Some(origin)
     }
 
+    /// Widens the used part of a box placed at `origin` to also hold the
+    /// voxel box `lo..=hi`, if the box covers it; false (and unchanged)
+    /// otherwise. The box's staged bits stay: crossings of several
+    /// triangles accumulate until the next [`SlabBricks::merge`].
+    #[inline]
+    pub fn extend(&mut self, origin: [i32; 3], lo: [i32; 3], hi: [i32; 3]) -> bool {
+        if (0..3).any(|a| lo[a] < origin[a] || hi[a] - origin[a] >= BOX_BRICKS * BRICK) {
+            return false;
+        }
+        for a in 0..3 {
+            self.used.0[a] = self.used.0[a].min(((lo[a] - origin[a]) >> 3) as usize);
+            self.used.1[a] = self.used.1[a].max(((hi[a] - origin[a]) >> 3) as usize);
+        }
+        true
+    }
+
     /// The box's words: word `8·brick + (z & 7)`, brick `bx | by << 2 |
     /// bz << 4` (box-relative brick coordinates), bit `(x & 7) | (y & 7) << 3`.
     #[inline(always)]
@@ -311,8 +327,8 @@ impl BrickBox {
         words.try_into().expect("64 bricks of 8 words")
     }
 
-    /// Sets voxel `v` of a box placed at `origin`; `v` must lie in the
-    /// voxel box given to [`BrickBox::place`]. A voxel outside cannot
+    /// Sets voxel `v` of a box placed at `origin`; `v` must lie in a voxel
+    /// box given to [`BrickBox::place`] or [`BrickBox::extend`]. A voxel outside cannot
     /// corrupt memory (the index is masked) but lands in a wrong place.
     #[inline(always)]
     pub fn set(&mut self, origin: [i32; 3], v: Voxel) {

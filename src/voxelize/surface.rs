@@ -768,6 +768,8 @@ pub fn voxelize_surface_slabs(
             let mut bricks =
                 SlabBricks::with_table(dims, slab.z0, slab.z1, table.unwrap_or_default());
             let mut staged = BrickBox::new();
+            // Where the box is placed while it holds staged crossings.
+            let mut placed: Option<[i32; 3]> = None;
             for (k, &t) in slab.triangles.iter().enumerate() {
                 // The slab's triangles are in spatial order, not memory
                 // order: fetch a few ahead so their loads overlap.
@@ -779,12 +781,20 @@ pub fn voxelize_surface_slabs(
                 // staged in a box of bricks (whose bricks outside this slab
                 // are dropped at the merge: slabs are whole bricks), larger
                 // ones inside the slab skip the clamping and the slab test
-                // per voxel.
+                // per voxel. In spatial order, consecutive triangles mostly
+                // fit the box where it is: it is merged into the slab only
+                // when the next one does not.
                 let (lo, hi) = crossing_bounds(tri);
-                let staged_at = if bricks.holds_in_grid(lo, hi) {
-                    staged.place(lo, hi)
-                } else {
+                let staged_at = if !bricks.holds_in_grid(lo, hi) {
                     None
+                } else if let Some(origin) = placed.filter(|&o| staged.extend(o, lo, hi)) {
+                    Some(origin)
+                } else {
+                    if let Some(origin) = placed.take() {
+                        bricks.merge(&mut staged, origin);
+                    }
+                    placed = staged.place(lo, hi);
+                    placed
                 };
                 if let Some(origin) = staged_at {
                     all_families(
@@ -795,12 +805,14 @@ pub fn voxelize_surface_slabs(
                             origin,
                         },
                     );
-                    bricks.merge(&mut staged, origin);
                 } else if bricks.holds(lo, hi) {
                     all_families(mode, tri, &mut |v| bricks.set_inside(v));
                 } else {
                     all_families(mode, tri, &mut |v| bricks.set(v));
                 }
+            }
+            if let Some(origin) = placed {
+                bricks.merge(&mut staged, origin);
             }
             let (list, table) = bricks.finish();
             if let Ok(mut t) = tables.lock() {
