@@ -26,7 +26,6 @@ use glam::DVec3;
 
 use super::voxels::check_sparse_budget;
 use crate::error::{Result, VoxkitError};
-use crate::grid::brick::mask_voxels;
 use crate::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
 
 /// Writes `grid` (voxels inside `frame.dims`, checked by the caller) as binvox.
@@ -50,33 +49,42 @@ pub fn write(
     write_runs(w, grid, d as u64)
 }
 
-/// The data section: runs over the `d³` voxels in binvox order, computed
-/// from the set voxels alone. Bricks are taken in x-slabs of 8 layers; a
-/// slab's set voxels become sorted linear indices `x·d² + z·d + y`, and the
-/// gaps between them are the zero runs, so the cost grows with the occupied
-/// voxels and the number of runs, not with `d³` (a 1024³ box is 10^9 voxels,
-/// a surface in it a few million).
+/// The data section: runs over the `d³` voxels in binvox order (x, then z,
+/// then y fastest), computed from the bricks alone: bricks sorted by
+/// `(x, z, y)` are walked one x layer and one z row at a time, each brick
+/// giving the 8 voxels of its y column at that `(x, z)` by a shift and a
+/// mask, and the gaps between set voxels are the zero runs. The cost grows
+/// with the occupied bricks and the number of runs, not with `d³` (a 1024³
+/// box is 10^9 voxels, a surface in it a few million), and nothing is
+/// sorted per voxel.
 fn write_runs(w: &mut dyn Write, grid: &BrickGrid, d: u64) -> Result<()> {
-    let mut by_slab: Vec<(Voxel, [u64; 8])> = grid.bricks().map(|(k, m)| (k, *m)).collect();
-    by_slab.sort_unstable_by_key(|(k, _)| k.x);
+    let mut bricks: Vec<(Voxel, [u64; 8])> = grid.bricks().map(|(k, m)| (k, *m)).collect();
+    bricks.sort_unstable_by_key(|(k, _)| (k.x, k.z, k.y));
     let mut rle = Rle::default();
     let mut out = Vec::with_capacity(1 << 16);
-    let mut indices: Vec<u64> = Vec::new();
     let mut pos = 0u64; // next voxel index to encode
-    for slab in by_slab.chunk_by(|a, b| a.0.x == b.0.x) {
-        indices.clear();
-        for (k, m) in slab {
-            let base = *k * 8;
-            for l in mask_voxels(*m) {
-                let v = base + l;
-                indices.push((v.x as u64 * d + v.z as u64) * d + v.y as u64);
+    // Bit `x + 8·y` of a brick word holds (x, y): the column at x.
+    const COLUMN: u64 = 0x0101_0101_0101_0101;
+    for slab in bricks.chunk_by(|a, b| a.0.x == b.0.x) {
+        for lx in 0..8 {
+            let x = slab[0].0.x as u64 * 8 + lx;
+            for row in slab.chunk_by(|a, b| a.0.z == b.0.z) {
+                for lz in 0..8 {
+                    let z = row[0].0.z as u64 * 8 + lz;
+                    let line = (x * d + z) * d;
+                    for (k, m) in row {
+                        let mut column = m[lz as usize] >> lx & COLUMN;
+                        while column != 0 {
+                            let y = k.y as u64 * 8 + u64::from(column.trailing_zeros() / 8);
+                            column &= column - 1;
+                            let at = line + y;
+                            rle.push_run(0, at - pos, &mut out);
+                            rle.push_run(1, 1, &mut out);
+                            pos = at + 1;
+                        }
+                    }
+                }
             }
-        }
-        indices.sort_unstable();
-        for &k in &indices {
-            rle.push_run(0, k - pos, &mut out);
-            rle.push_run(1, 1, &mut out);
-            pos = k + 1;
         }
         w.write_all(&out)?;
         out.clear();
@@ -115,10 +123,9 @@ impl Rle {
             out.extend_from_slice(&[self.value, self.count]);
         }
         let full = (len - 1) / 255; // keep the last (partial or full) run open
-        out.reserve(2 * full as usize);
-        for _ in 0..full {
-            out.extend_from_slice(&[v, 255]);
-        }
+        let at = out.len();
+        out.resize(at + 2 * full as usize, 255);
+        out[at..].chunks_exact_mut(2).for_each(|pair| pair[0] = v);
         self.value = v;
         self.count = (len - 255 * full) as u8;
     }
