@@ -769,3 +769,37 @@ fn kahan_kelsen_route_equals_the_crossing_kernel_on_snapped_input() {
     let plain = voxkit_json(&[&args[..], &["--snap"]].concat());
     assert_eq!(kk["voxels"], plain["voxels"]);
 }
+
+/// The binary installs `voxkit::alloc::HugePageAlloc` (huge pages for blocks
+/// of 512 KiB and more); at 1024³ the bunny's quantized triangles, slab
+/// tables, slab brick lists and grid arrays all take that path. Its file
+/// holds the same voxels as the library run in this process, which uses the
+/// system allocator.
+#[test]
+fn cli_with_its_huge_page_allocator_matches_the_library() {
+    let mesh = data("data/meshes/obj/stanford-bunny.obj");
+    let out = tmp("bunny-1024.binvox");
+    let j = voxkit_json(&[
+        "voxelize",
+        mesh.to_str().unwrap(),
+        "-r",
+        "1024",
+        "-o",
+        out.to_str().unwrap(),
+        "--force",
+        "--json",
+        "-q",
+    ]);
+    let (cli, _) = read_voxels(&out, MemoryLimit::DEFAULT).unwrap();
+    let lib = voxelize_mesh(
+        &Mesh::load(&mesh).unwrap(),
+        &VoxelizeOptions::new(1024, VoxelizeMode::Thin),
+    )
+    .unwrap();
+    assert_eq!(j["voxels"].as_u64(), Some(lib.grid.count()));
+    assert!(
+        cli == lib.grid,
+        "the CLI's voxels differ from the library's"
+    );
+    let _ = std::fs::remove_file(&out);
+}
