@@ -749,15 +749,7 @@ pub fn voxelize_surface_slabs(
     mode: SurfaceMode,
 ) -> Vec<BrickList> {
     use rayon::prelude::*;
-    let t0 = std::time::Instant::now();
     let plan = SlabPlan::new(triangles, dims);
-    if std::env::var("VKDBG").is_ok() {
-        eprintln!(
-            "plan {:.2} ms, {} slabs",
-            t0.elapsed().as_secs_f64() * 1e3,
-            plan.slabs.len()
-        );
-    }
     // Cleared slab tables for the next slab: a table per thread at a time
     // is mapped once instead of once per slab.
     let tables = std::sync::Mutex::new(Vec::<Vec<u32>>::new());
@@ -787,14 +779,17 @@ pub fn voxelize_surface_slabs(
                 let (lo, hi) = crossing_bounds(tri);
                 let staged_at = if !bricks.holds_in_grid(lo, hi) {
                     None
-                } else if let Some(origin) = placed.filter(|&o| staged.extend(o, lo, hi)) {
-                    Some(origin)
                 } else {
-                    if let Some(origin) = placed.take() {
-                        bricks.merge(&mut staged, origin);
+                    match placed {
+                        Some(origin) if staged.extend(origin, lo, hi) => Some(origin),
+                        _ => {
+                            if let Some(origin) = placed {
+                                bricks.merge(&mut staged, origin);
+                            }
+                            placed = staged.place(lo, hi);
+                            placed
+                        }
                     }
-                    placed = staged.place(lo, hi);
-                    placed
                 };
                 if let Some(origin) = staged_at {
                     all_families(
