@@ -116,6 +116,16 @@ fn bench_size(c: &mut Criterion, g: usize, name: &str) {
                     .fold(0, |a, b| a ^ b)
             })
         });
+        // Set-up alone (construct, read the length): the fixed cost per line.
+        grp.throughput(Throughput::Elements(segs.len() as u64));
+        grp.bench_function("line26_setup_per_line", |bn| {
+            bn.iter(|| {
+                black_box(&segs)
+                    .iter()
+                    .map(|s| Line26::new(s).len())
+                    .fold(0, |a, b| a ^ b)
+            })
+        });
         grp.throughput(Throughput::Elements(total26i));
         grp.bench_function("line26_integer_endpoints", |bn| {
             bn.iter(|| {

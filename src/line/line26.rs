@@ -38,7 +38,7 @@ pub struct Mid26State<T> {
     pub(crate) du: T,
     pub(crate) dv: T,
     /// `D_m·S`.
-    dm: T,
+    pub(crate) dm: T,
 }
 
 impl<T: DecisionInt> Mid26State<T> {
@@ -105,7 +105,18 @@ pub(crate) struct Moves {
 /// voxel is the one before the first axis repeats: one pass, no buffer.
 #[inline]
 fn moves_between(f: &Frame, from: [i64; 3], to: [i64; 3]) -> Moves {
-    let n: i64 = (0..3).map(|k| to[k] - from[k]).sum();
+    let delta: [i64; 3] = std::array::from_fn(|k| to[k] - from[k]);
+    if delta.iter().all(|&d| d == 0 || d == 1) {
+        // `to` is a 26-neighbour of `from` (or `from` itself): the greedy
+        // compression jumps there at once, whatever the tripod order.
+        let mask = (0..3).fold(0u8, |m, k| m | ((delta[k] as u8) << k));
+        return if mask == 0 {
+            Moves::default()
+        } else {
+            single(mask)
+        };
+    }
+    let n: i64 = delta.iter().sum();
     // Between a line end and its first or last column centre: ≤ 1 + 2 + 2.
     assert!(
         (0..=MAX_SPECIAL as i64).contains(&n),
@@ -342,27 +353,19 @@ impl Cursor26 {
     }
 }
 
-/// Iterator over the voxels of the 26-connected line, start voxel first.
-///
-/// ```
-/// use voxkit::line::{Line26, Segment};
-/// let s = Segment::from_voxels([0, 0, 0].into(), [4, -2, 1].into()).unwrap();
-/// let v: Vec<_> = Line26::new(&s).collect();
-/// assert_eq!(v.len(), 5); // d26 + 1
-/// assert_eq!(v[4].to_array(), [4, -2, 1]);
-/// ```
+/// The general 26-line iterator: any frame (`i64` or `i128`), any start
+/// position (clipping), end paths of any length.
 #[derive(Clone, Copy, Debug)]
-pub struct Line26 {
+struct General26 {
     cur: IVec3,
     cursor: Cursor26,
     steps: [IVec3; 8],
     remaining: u64,
 }
 
-impl Line26 {
-    /// The whole line of `seg`.
+impl General26 {
     #[inline]
-    pub fn new(seg: &Segment) -> Self {
+    fn new(seg: &Segment) -> Self {
         Self::from_frame(&Frame::new(seg))
     }
 
@@ -370,7 +373,7 @@ impl Line26 {
     pub(crate) fn from_frame(f: &Frame) -> Self {
         let f = *f;
         let plan = Plan26::new(&f);
-        Line26 {
+        General26 {
             cur: f.voxel_world([0; 3]),
             cursor: Cursor26::at(&f, plan, 0),
             steps: f.mask_steps(),
@@ -380,14 +383,14 @@ impl Line26 {
 
     /// The part of the line inside `box_`, started in O(1) at its first
     /// in-box voxel.
-    pub fn clipped(seg: &Segment, box_: &GridBox) -> Self {
+    fn clipped(seg: &Segment, box_: &GridBox) -> Self {
         let f = Frame::new(seg);
         let plan = Plan26::new(&f);
         let (p, n) = match plan.range(&f, box_) {
             Some((a, b)) => (a, b - a + 1),
             None => (0, 0),
         };
-        Line26 {
+        General26 {
             cur: f.voxel_world(plan.voxel_at(&f, p)),
             cursor: Cursor26::at(&f, plan, p),
             steps: f.mask_steps(),
@@ -396,7 +399,7 @@ impl Line26 {
     }
 }
 
-impl Iterator for Line26 {
+impl Iterator for General26 {
     type Item = IVec3;
     #[inline]
     fn next(&mut self) -> Option<IVec3> {
@@ -417,18 +420,62 @@ impl Iterator for Line26 {
         (n, usize::try_from(self.remaining).ok())
     }
 
+    /// Internal iteration. With AVX2 the middle columns run eight at a
+    /// time ([`super::lanes`]); the voxels are the same.
     #[inline]
     fn fold<B, G: FnMut(B, IVec3) -> B>(self, init: B, g: G) -> B {
-        self.run(init, g)
+        #[cfg(target_arch = "x86_64")]
+        if self.cursor.mid_left >= LANES_MIN_COLUMNS && super::lanes::avx2::available() {
+            // SAFETY: AVX2 was detected at run time.
+            return unsafe { self.fold_avx2(init, g) };
+        }
+        self.run(init, g, scalar_mid)
     }
 }
 
-impl Line26 {
+/// Middle columns below this count run scalar: the lanes' set-up costs
+/// about as much as stepping a handful of columns.
+const LANES_MIN_COLUMNS: u64 = 8;
+
+/// The middle of a 26-line, scalar: `n` column steps from `cur` (the voxel of
+/// the state's column), each voxel handed to `g`; returns the accumulator
+/// and the last voxel.
+#[inline(always)]
+fn scalar_mid<B, G: FnMut(B, IVec3) -> B>(
+    mid: &mut AnyMid,
+    mut cur: IVec3,
+    steps: &[IVec3; 8],
+    n: u64,
+    mut acc: B,
+    g: &mut G,
+) -> (B, IVec3) {
+    match mid {
+        AnyMid::Narrow(s) => {
+            for _ in 0..n {
+                cur += steps[s.step()];
+                acc = g(acc, cur);
+            }
+        }
+        AnyMid::Wide(s) => {
+            for _ in 0..n {
+                cur += steps[s.step()];
+                acc = g(acc, cur);
+            }
+        }
+    }
+    (acc, cur)
+}
+
+impl General26 {
     /// Internal iteration: the prefix and suffix moves from their lists, the
-    /// middle as one tight loop of the midpoint state (no per-voxel phase
-    /// test, the `i64`/`i128` choice made once).
+    /// middle by `mid` (no per-voxel phase test).
     #[inline(always)]
-    fn run<B>(mut self, init: B, mut g: impl FnMut(B, IVec3) -> B) -> B {
+    fn run<B, G: FnMut(B, IVec3) -> B>(
+        mut self,
+        init: B,
+        mut g: G,
+        mid: impl FnOnce(&mut AnyMid, IVec3, &[IVec3; 8], u64, B, &mut G) -> (B, IVec3),
+    ) -> B {
         let mut acc = init;
         if self.remaining == 0 {
             return acc;
@@ -446,19 +493,8 @@ impl Line26 {
         }
         let n = left.min(c.mid_left);
         left -= n;
-        match &mut c.mid {
-            AnyMid::Narrow(s) => {
-                for _ in 0..n {
-                    cur += steps[s.step()];
-                    acc = g(acc, cur);
-                }
-            }
-            AnyMid::Wide(s) => {
-                for _ in 0..n {
-                    cur += steps[s.step()];
-                    acc = g(acc, cur);
-                }
-            }
+        if n > 0 {
+            (acc, cur) = mid(&mut c.mid, cur, &steps, n, acc, &mut g);
         }
         let post = &c.plan.post.m[c.post_i..];
         for &mv in post.iter().take(left as usize) {
@@ -467,7 +503,410 @@ impl Line26 {
         }
         acc
     }
+
+    /// [`General26::run`] with the middle in AVX2 lanes where they apply.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn fold_avx2<B, G: FnMut(B, IVec3) -> B>(self, init: B, g: G) -> B {
+        use super::lanes::avx2::{MidColumns, mid_voxels};
+        self.run(init, g, |mid, cur, steps, n, acc, g| {
+            if let AnyMid::Narrow(s) = mid
+                && n >= LANES_MIN_COLUMNS
+                && let Some(cols) = MidColumns::new([s.eu, s.ev], [s.dm, s.du, s.dv])
+            {
+                // SAFETY: this function runs only where AVX2 is available.
+                unsafe { mid_voxels(&cols, cur, [steps[1], steps[2], steps[4]], n, acc, g) }
+            } else {
+                scalar_mid(mid, cur, steps, n, acc, g)
+            }
+        })
+    }
+}
+
+/// Iterator over the voxels of the 26-connected line, start voxel first.
+///
+/// ```
+/// use voxkit::line::{Line26, Segment};
+/// let s = Segment::from_voxels([0, 0, 0].into(), [4, -2, 1].into()).unwrap();
+/// let v: Vec<_> = Line26::new(&s).collect();
+/// assert_eq!(v.len(), 5); // d26 + 1
+/// assert_eq!(v[4].to_array(), [4, -2, 1]);
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct Line26(Inner26);
+
+// The common variant is written in place; boxing the general one would
+// allocate for every clipped line.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy, Debug)]
+enum Inner26 {
+    Compact(Compact26),
+    General(General26),
+}
+
+impl Line26 {
+    /// The whole line of `seg`.
+    #[inline]
+    pub fn new(seg: &Segment) -> Self {
+        match Compact26::new(seg) {
+            Some(c) => Line26(Inner26::Compact(c)),
+            None => Line26(Inner26::General(General26::new(seg))),
+        }
+    }
+
+    #[cfg(test)]
+    pub(crate) fn from_frame(f: &Frame) -> Self {
+        Line26(Inner26::General(General26::from_frame(f)))
+    }
+
+    /// The part of the line inside `box_`, started in O(1) at its first
+    /// in-box voxel.
+    pub fn clipped(seg: &Segment, box_: &GridBox) -> Self {
+        Line26(Inner26::General(General26::clipped(seg, box_)))
+    }
+}
+
+impl Iterator for Line26 {
+    type Item = IVec3;
+    #[inline]
+    fn next(&mut self) -> Option<IVec3> {
+        match &mut self.0 {
+            Inner26::Compact(c) => c.next(),
+            Inner26::General(g) => g.next(),
+        }
+    }
+
+    #[inline]
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        match &self.0 {
+            Inner26::Compact(c) => c.size_hint(),
+            Inner26::General(g) => g.size_hint(),
+        }
+    }
+
+    #[inline]
+    fn fold<B, G: FnMut(B, IVec3) -> B>(self, init: B, g: G) -> B {
+        match self.0 {
+            Inner26::Compact(c) => c.fold(init, g),
+            Inner26::General(l) => l.fold(init, g),
+        }
+    }
 }
 
 impl ExactSizeIterator for Line26 {}
 impl std::iter::FusedIterator for Line26 {}
+
+/// The common 26-line, set up without the general frame: a narrow segment
+/// (no axis longer than 2^20 voxels) whose end paths are single moves (the
+/// start voxel is a 26-neighbour of column 1's centre voxel, the end voxel
+/// of column `M − 1`'s). Positions: 0 = `V0`, `c` = column `c`'s centre
+/// (`1 ≤ c < M`), `last` = `V1`. The same voxels as [`General26`] (unit
+/// test `compact_equals_general`), at a fraction of the set-up.
+#[derive(Clone, Copy, Debug)]
+struct Compact26 {
+    cur: IVec3,
+    /// Position of `cur`; past `last` when exhausted.
+    pos: u64,
+    last: u64,
+    /// Midpoint state at column `pos` while `1 ≤ pos < last`.
+    mid: Mid26State<i64>,
+    /// Local move masks `V0 → C1` and `C(M−1) → V1` (or `V0 → V1` when
+    /// `M < 2`).
+    pre: u8,
+    post: u8,
+    /// World unit steps of local m, u, v.
+    steps: [IVec3; 3],
+}
+
+impl Compact26 {
+    /// The same quantities as [`Frame::new`], [`Plan26::new`] and
+    /// [`Cursor26::at`] for the narrow case, or `None` where the general
+    /// iterator is needed.
+    #[inline]
+    fn new(seg: &Segment) -> Option<Self> {
+        use super::segment::tie_perturbation_negative;
+        use crate::fixed::{FRAC_BITS, HALF, ONE};
+        // Straight-line and branch-free where the outcome varies from line
+        // to line (major axis, signs, ties): a mispredicted branch costs as
+        // much as the rest of the set-up.
+        const PERMS: [[usize; 3]; 3] = [[0, 1, 2], [1, 0, 2], [2, 0, 1]];
+        let (a, b) = (seg.a(), seg.b());
+        let v0w = a.map(|c| (c + HALF) >> FRAC_BITS);
+        let v1w = b.map(|c| (c + HALF) >> FRAC_BITS);
+        let wsign: [i64; 3] = std::array::from_fn(|k| ((b[k] - a[k]) >> 63) | 1);
+        let wd: [i64; 3] = std::array::from_fn(|k| (b[k] - a[k]).abs());
+        let m01 = usize::from(wd[1] > wd[0]);
+        let m = if wd[2] > wd[m01] { 2 } else { m01 };
+        let [im, iu, iv] = PERMS[m];
+        let (dm, du, dv) = (wd[im], wd[iu], wd[iv]);
+        if dm > super::segment::NARROW_MAX_DELTA {
+            return None;
+        }
+        let local = |w: usize| {
+            (
+                wsign[w] * (a[w] - v0w[w] * ONE),
+                wsign[w] * (v1w[w] - v0w[w]),
+            )
+        };
+        let (am, mm) = local(im);
+        let (au, eu) = local(iu);
+        let (av, ev) = local(iv);
+        let unit = |w: usize| {
+            let s = wsign[w] as i32;
+            IVec3::new(
+                s * i32::from(w == 0),
+                s * i32::from(w == 1),
+                s * i32::from(w == 2),
+            )
+        };
+        let steps = [unit(im), unit(iu), unit(iv)];
+        let cur = IVec3::new(v0w[0] as i32, v0w[1] as i32, v0w[2] as i32);
+        let (sdm, sdu, sdv) = (dm * ONE, du * ONE, dv * ONE);
+        // Local move mask of steps of 0 or 1 along u and v (and `m` along m).
+        let mask = |m: i64, u: i64, v: i64| -> Option<u8> {
+            ((m | u | v) as u64 <= 1).then_some((m | u << 1 | v << 2) as u8)
+        };
+        if mm < 2 {
+            let pre = mask(mm, eu, ev)?;
+            return Some(Compact26 {
+                cur,
+                pos: 0,
+                last: u64::from(pre != 0),
+                mid: Mid26State {
+                    eu: 0,
+                    ev: 0,
+                    du: sdu,
+                    dv: sdv,
+                    dm: sdm,
+                },
+                pre,
+                post: 0,
+                steps,
+            });
+        }
+        let bias_u = i64::from(tie_perturbation_negative(&wd, &wsign, im, iu));
+        let bias_v = i64::from(tie_perturbation_negative(&wd, &wsign, im, iv));
+        // Columns 1 and M − 1 as Frame::centre_first / centre_last (same
+        // bounds: each quotient takes three comparisons).
+        let den = sdm;
+        let n1 = |dk: i64, ak: i64, bias: i64| dk * (ONE - am) + dm * (ak + HALF) - bias;
+        let q1 = |n: i64| i64::from(n >= den) + i64::from(n >= 2 * den) - i64::from(n < 0);
+        let (nu, nv) = (n1(du, au, bias_u), n1(dv, av, bias_v));
+        let (qu, qv) = (q1(nu), q1(nv));
+        let bm = am + dm - (mm - 1) * ONE;
+        // V1_k minus column M − 1's voxel along k: 2 − (three comparisons).
+        let back = |dk: i64, ak: i64, ek: i64, bias: i64| -> i64 {
+            let n = dm * (ak + dk - ek * ONE + HALF) - dk * bm - bias;
+            2 - i64::from(n >= -den) - i64::from(n >= 0) - i64::from(n >= den)
+        };
+        let pre = mask(1, qu, qv)?;
+        let post = mask(1, back(du, au, eu, bias_u), back(dv, av, ev, bias_v))?;
+        // E at column 1: N(2) − (U(1) + 1)·D_m·S with N(2) = N(1) + D_k·S.
+        let mid = Mid26State {
+            eu: nu + sdu - (qu + 1) * sdm,
+            ev: nv + sdv - (qv + 1) * sdm,
+            du: sdu,
+            dv: sdv,
+            dm: sdm,
+        };
+        Some(Compact26 {
+            cur,
+            pos: 0,
+            last: mm as u64,
+            mid,
+            pre,
+            post,
+            steps,
+        })
+    }
+
+    /// World step of local move mask `mask`.
+    #[inline(always)]
+    fn step_of(&self, mask: usize) -> IVec3 {
+        let [m, u, v] = self.steps;
+        let bit = |k: usize| (mask >> k & 1) as i32;
+        m * bit(0) + u * bit(1) + v * bit(2)
+    }
+
+    /// The table of [`Compact26::step_of`] for all eight masks.
+    #[inline(always)]
+    fn mask_steps(&self) -> [IVec3; 8] {
+        let [m, u, v] = self.steps;
+        [IVec3::ZERO, m, u, m + u, v, m + v, u + v, m + u + v]
+    }
+
+    #[inline]
+    fn next(&mut self) -> Option<IVec3> {
+        if self.pos > self.last {
+            return None;
+        }
+        let v = self.cur;
+        if self.pos < self.last {
+            let mask = if self.pos == 0 {
+                usize::from(self.pre)
+            } else if self.pos + 1 == self.last {
+                usize::from(self.post)
+            } else {
+                self.mid.step()
+            };
+            self.cur += self.step_of(mask);
+        }
+        self.pos += 1;
+        Some(v)
+    }
+
+    #[inline]
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        let n = (self.last + 1).saturating_sub(self.pos);
+        let n = usize::try_from(n).unwrap_or(usize::MAX);
+        (n, Some(n))
+    }
+
+    /// Internal iteration: the end moves, and the middle columns in one
+    /// loop (AVX2 lanes where available).
+    #[inline]
+    fn fold<B, G: FnMut(B, IVec3) -> B>(self, init: B, g: G) -> B {
+        #[cfg(target_arch = "x86_64")]
+        if self.last >= self.pos + 1 + LANES_MIN_COLUMNS && super::lanes::avx2::available() {
+            // SAFETY: AVX2 was detected at run time.
+            return unsafe { self.fold_avx2(init, g) };
+        }
+        self.run(init, g, |mid, cur, steps, n, acc, g| {
+            scalar_mid(&mut AnyMid::Narrow(*mid), cur, steps, n, acc, g)
+        })
+    }
+
+    #[inline(always)]
+    fn run<B, G: FnMut(B, IVec3) -> B>(
+        mut self,
+        init: B,
+        mut g: G,
+        mid: impl FnOnce(&Mid26State<i64>, IVec3, &[IVec3; 8], u64, B, &mut G) -> (B, IVec3),
+    ) -> B {
+        let mut acc = init;
+        if self.pos > self.last {
+            return acc;
+        }
+        let mut cur = self.cur;
+        acc = g(acc, cur);
+        if self.pos == self.last {
+            return acc;
+        }
+        let steps = self.mask_steps();
+        if self.pos == 0 {
+            cur += steps[usize::from(self.pre)];
+            acc = g(acc, cur);
+            self.pos = 1;
+            if self.last == 1 {
+                return acc;
+            }
+        }
+        let n = self.last - 1 - self.pos;
+        if n > 0 {
+            (acc, cur) = mid(&self.mid, cur, &steps, n, acc, &mut g);
+        }
+        cur += steps[usize::from(self.post)];
+        g(acc, cur)
+    }
+
+    /// [`Compact26::run`] with the middle in AVX2 lanes where they apply.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn fold_avx2<B, G: FnMut(B, IVec3) -> B>(self, init: B, g: G) -> B {
+        use super::lanes::avx2::{MidColumns, mid_voxels};
+        self.run(init, g, |s, cur, steps, n, acc, g| {
+            match MidColumns::new([s.eu, s.ev], [s.dm, s.du, s.dv]) {
+                // SAFETY: this function runs only where AVX2 is available.
+                Some(cols) => unsafe {
+                    mid_voxels(&cols, cur, [steps[1], steps[2], steps[4]], n, acc, g)
+                },
+                None => scalar_mid(&mut AnyMid::Narrow(*s), cur, steps, n, acc, g),
+            }
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fixed::ONE;
+    use rand::{Rng, SeedableRng};
+
+    fn collect_next(mut it: impl Iterator<Item = IVec3>) -> Vec<IVec3> {
+        std::iter::from_fn(move || it.next()).collect()
+    }
+
+    fn collect_fold(it: impl Iterator<Item = IVec3>) -> Vec<IVec3> {
+        it.fold(Vec::new(), |mut v, x| {
+            v.push(x);
+            v
+        })
+    }
+
+    /// The compact set-up gives the general iterator's voxels (by `next`
+    /// and by `fold`, from every start position) on integer, sub-voxel and
+    /// quarter-voxel endpoints (exact ties), axis-parallel, diagonal and
+    /// far-out segments; and it applies to most segments.
+    #[test]
+    fn compact_equals_general() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2626);
+        let mut compact = 0;
+        let total = 20000;
+        for i in 0..total {
+            let span = [2i64, 5, 40, 200][i % 4];
+            let kind = rng.random_range(0..5);
+            let far = if i % 7 == 0 { (1i64 << 30) - 500 } else { 0 };
+            let p = |rng: &mut rand_chacha::ChaCha8Rng| -> [i64; 3] {
+                std::array::from_fn(|_| {
+                    far * ONE
+                        + match kind {
+                            0 => rng.random_range(-span..=span) * ONE,
+                            1 => rng.random_range(-4 * span..=4 * span) * (ONE / 4),
+                            _ => rng.random_range(-span * ONE..=span * ONE),
+                        }
+                })
+            };
+            let a = p(&mut rng);
+            let mut b = p(&mut rng);
+            if kind == 3 {
+                b[i % 3] = a[i % 3];
+            }
+            if kind == 4 {
+                let t = rng.random_range(-span..=span) * (ONE / 2);
+                b = [a[0] + t, a[1] - t, a[2] + t];
+            }
+            let seg = Segment::from_fixed(a, b).unwrap();
+            let general = General26::new(&seg);
+            let Some(c) = Compact26::new(&seg) else {
+                continue;
+            };
+            compact += 1;
+            let want = collect_next(general);
+            assert_eq!(
+                collect_next(Line26(Inner26::Compact(c))),
+                want,
+                "next {seg:?}"
+            );
+            assert_eq!(c.size_hint(), (want.len(), Some(want.len())), "{seg:?}");
+            for skip in [0, 1, 2, want.len().saturating_sub(2), want.len()] {
+                let mut c = c;
+                for _ in 0..skip.min(want.len()) {
+                    c.next();
+                }
+                let rest = &want[skip.min(want.len())..];
+                let c = Line26(Inner26::Compact(c));
+                assert_eq!(collect_fold(c), rest, "fold after {skip} {seg:?}");
+            }
+        }
+        assert!(
+            compact * 10 > total * 8,
+            "compact path taken {compact} / {total}"
+        );
+    }
+}

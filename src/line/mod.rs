@@ -31,6 +31,7 @@
 pub mod adaptive;
 pub mod amanatides_woo;
 pub mod clip;
+mod lanes;
 pub mod line18;
 pub mod line26;
 pub mod line2d;

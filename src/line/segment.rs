@@ -212,6 +212,28 @@ impl DecisionInt for i128 {
 /// then `x`.
 const SHIFT_RANK: [u8; 3] = [2, 0, 1];
 
+/// Whether the tie-rule perturbation of the decision variable of world axes
+/// `(wi, wj)` is negative, for world direction magnitudes `wd` and signs
+/// `wsign` (see the module docs: `p = −D_j s_i δ_i + D_i s_j δ_j`, the
+/// dominant infinitesimal decides).
+#[inline(always)]
+pub(crate) fn tie_perturbation_negative(
+    wd: &[i64; 3],
+    wsign: &[i64; 3],
+    wi: usize,
+    wj: usize,
+) -> bool {
+    // Only signs matter: sign(c_i) = −sign(D_j)·s_i, sign(c_j) = sign(D_i)·s_j
+    // (D ≥ 0). Written as selects: the axes vary from line to line, and
+    // branches on them mispredict in a line's set-up.
+    let ci = -i64::from(wd[wj] != 0) * wsign[wi];
+    let cj = i64::from(wd[wi] != 0) * wsign[wj];
+    let i_first = SHIFT_RANK[wi] < SHIFT_RANK[wj];
+    let first = if i_first { ci } else { cj };
+    let second = if i_first { cj } else { ci };
+    first + i64::from(first == 0) * second < 0
+}
+
 /// The mirrored, permuted frame of a segment (see the module docs).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Frame {
@@ -272,20 +294,7 @@ impl Frame {
         let d = perm.map(|w| wd[w]);
         let la = perm.map(|w| wsign[w] * (a[w] - v0w[w] * ONE));
         let end = perm.map(|w| wsign[w] * (v1w[w] - v0w[w]));
-        let pneg_of = |i: usize, j: usize| -> bool {
-            let (wi, wj) = (perm[i], perm[j]);
-            // p = −D_j s_i δ_i + D_i s_j δ_j; the dominant infinitesimal decides.
-            // (Components are < 2^52 and signs ±1: the products fit i64.)
-            let ci = -wd[wj] * wsign[wi];
-            let cj = wd[wi] * wsign[wj];
-            let (first, second) = if SHIFT_RANK[wi] < SHIFT_RANK[wj] {
-                (ci, cj)
-            } else {
-                (cj, ci)
-            };
-            let s = if first != 0 { first } else { second };
-            s < 0
-        };
+        let pneg_of = |i: usize, j: usize| tie_perturbation_negative(&wd, &wsign, perm[i], perm[j]);
         let pneg: [[bool; 3]; 3] =
             std::array::from_fn(|i| std::array::from_fn(|j| i != j && pneg_of(i, j)));
         let bias = PAIRS.map(|(i, j)| i64::from(pneg[i][j]));

@@ -155,7 +155,16 @@ fn walk_26<F: FnMut(usize) -> ControlFlow<()>>(
     let n = left.min(cur.mid_left);
     if n > 0 {
         match &mut cur.mid {
-            AnyMid::Narrow(s) => run_mid(s, &mut idx, n, &off.mask, visit)?,
+            AnyMid::Narrow(s) => {
+                #[cfg(target_arch = "x86_64")]
+                if let Some(i) = lanes_mid(dims, off, s, idx, n, visit) {
+                    idx = i?;
+                } else {
+                    run_mid(s, &mut idx, n, &off.mask, visit)?;
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                run_mid(s, &mut idx, n, &off.mask, visit)?;
+            }
             AnyMid::Wide(s) => run_mid(s, &mut idx, n, &off.mask, visit)?,
         }
         cur.mid_left -= n;
@@ -169,6 +178,32 @@ fn walk_26<F: FnMut(usize) -> ControlFlow<()>>(
         }
     }
     Ok(total)
+}
+
+/// The 26-line's middle in AVX2 lanes ([`super::lanes`]): `n` columns after
+/// `idx`, if the lanes apply (AVX2, at least 8 columns, a major span under
+/// 256 voxels, a grid of fewer than 2^31 cells); the result is the last index
+/// or where the visitor stopped. `None`: run it scalar.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn lanes_mid<F: FnMut(usize) -> ControlFlow<()>>(
+    dims: crate::grid::Dims,
+    off: &Offsets,
+    s: &Mid26State<i64>,
+    idx: usize,
+    n: u64,
+    visit: &mut F,
+) -> Option<Result<usize, usize>> {
+    use super::lanes::avx2::{MidColumns, available, mid_indices};
+    let cells = dims.iter().try_fold(1usize, |a, &d| a.checked_mul(d));
+    if n < 8 || cells.is_none_or(|c| c >= 1 << 31) || !available() {
+        return None;
+    }
+    let cols = MidColumns::new([s.eu, s.ev], [s.dm, s.du, s.dv])?;
+    let axis = [off.axis[0], off.axis[1], off.axis[2]];
+    // SAFETY: AVX2 is available, and every visited index is an in-grid cell
+    // of a grid with fewer than 2^31 cells (clipping, as for the scalar walk).
+    Some(unsafe { mid_indices(&cols, idx, axis, n, visit) })
 }
 
 /// Last 26-line position whose tripod index (sum of local coordinates) is
