@@ -43,7 +43,6 @@ pub(crate) fn remainder_from_midpoint(e: i64, dk: i64, dm: i64) -> i64 {
 pub(crate) mod avx2 {
     use std::arch::x86_64::*;
     use std::mem::MaybeUninit;
-    use std::ops::ControlFlow;
 
     use glam::IVec3;
 
@@ -173,179 +172,275 @@ pub(crate) mod avx2 {
         (rem, q)
     }
 
-    /// World axes of local u and v when the major axis is world axis `MA`
-    /// (the frame's permutation: the other two in x, y, z order).
-    const fn minor_axes(ma: usize) -> (usize, usize) {
-        match ma {
-            0 => (1, 2),
-            1 => (0, 2),
-            _ => (0, 1),
-        }
+    /// A buffer for one fill of lanes (`CHUNK` values and one block of
+    /// overrun).
+    pub(crate) type Buffer = [MaybeUninit<i32>; BUF];
+
+    /// An uninitialised [`Buffer`]: zeroing it per line cost more than a
+    /// short line's stepping; only the values a fill wrote are read.
+    #[inline(always)]
+    pub(crate) fn buffer() -> Buffer {
+        [MaybeUninit::uninit(); BUF]
     }
 
-    /// Hands the voxels of the next `n` middle columns after `cur` (the voxel
-    /// of the current column) to `g`, in order; returns the accumulator and
-    /// the last voxel. `steps` are the world unit steps of local m, u, v.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 ([`available`]).
-    #[target_feature(enable = "avx2")]
-    pub(crate) unsafe fn mid_voxels<B, G: FnMut(B, IVec3) -> B>(
-        cols: &MidColumns,
-        cur: IVec3,
-        steps: [IVec3; 3],
-        n: u64,
-        acc: B,
-        g: &mut G,
-    ) -> (B, IVec3) {
-        let major = steps[0].abs().to_array().iter().position(|&c| c != 0);
-        match major {
-            Some(0) => mid_voxels_on::<0, B, G>(cols, cur, steps, n, acc, g),
-            Some(1) => mid_voxels_on::<1, B, G>(cols, cur, steps, n, acc, g),
-            _ => mid_voxels_on::<2, B, G>(cols, cur, steps, n, acc, g),
-        }
+    /// The first `n` values of a buffer that a fill wrote.
+    #[inline(always)]
+    fn written(buf: &Buffer, n: usize) -> &[i32] {
+        debug_assert!(n <= BUF);
+        // SAFETY: the caller's fill wrote words 0..n (i32 is plain data).
+        unsafe { std::slice::from_raw_parts(buf.as_ptr().cast::<i32>(), n) }
     }
 
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn mid_voxels_on<const MA: usize, B, G: FnMut(B, IVec3) -> B>(
-        cols: &MidColumns,
-        cur: IVec3,
-        steps: [IVec3; 3],
-        n: u64,
-        mut acc: B,
-        g: &mut G,
-    ) -> (B, IVec3) {
-        let (ua, va) = minor_axes(MA);
-        let sm = steps[0][MA];
-        let (su, sv) = (steps[1][ua], steps[2][va]);
-        let (mut lanes, [du, dv]) = Lanes::start(cols);
-        let iota1 = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 8);
-        let mut wm = _mm256_add_epi32(
-            _mm256_set1_epi32(cur[MA]),
-            _mm256_sign_epi32(iota1, _mm256_set1_epi32(sm)),
-        );
-        let mut wu = _mm256_add_epi32(
-            _mm256_set1_epi32(cur[ua]),
-            _mm256_sign_epi32(du, _mm256_set1_epi32(su)),
-        );
-        let mut wv = _mm256_add_epi32(
-            _mm256_set1_epi32(cur[va]),
-            _mm256_sign_epi32(dv, _mm256_set1_epi32(sv)),
-        );
-        let (vsu, vsv) = (_mm256_set1_epi32(su), _mm256_set1_epi32(sv));
-        let jm = _mm256_set1_epi32(8 * sm);
-        let ju = _mm256_set1_epi32(lanes.q[0] * su);
-        let jv = _mm256_set1_epi32(lanes.q[1] * sv);
-        // Uninitialised: zeroing 3×72 words per line cost more than a short
-        // line's stepping. Only the first `take` words of a fill are read.
-        let mut xs = [MaybeUninit::<i32>::uninit(); BUF];
-        let mut ys = [MaybeUninit::<i32>::uninit(); BUF];
-        let mut zs = [MaybeUninit::<i32>::uninit(); BUF];
-        let mut last = cur;
-        let mut left = n;
-        while left > 0 {
-            let take = left.min(CHUNK as u64) as usize;
-            let mut b = 0;
-            while b < take {
-                let (ox, oy, oz) = match MA {
-                    0 => (wm, wu, wv),
-                    1 => (wu, wm, wv),
-                    _ => (wu, wv, wm),
-                };
-                // SAFETY: b + 8 ≤ take + 7 < BUF words; unaligned stores.
-                unsafe {
-                    _mm256_storeu_si256(xs.as_mut_ptr().add(b).cast(), ox);
-                    _mm256_storeu_si256(ys.as_mut_ptr().add(b).cast(), oy);
-                    _mm256_storeu_si256(zs.as_mut_ptr().add(b).cast(), oz);
-                }
-                let [cu, cv] = lanes.jump();
-                wm = _mm256_add_epi32(wm, jm);
-                wu = _mm256_add_epi32(_mm256_add_epi32(wu, ju), _mm256_and_si256(cu, vsu));
-                wv = _mm256_add_epi32(_mm256_add_epi32(wv, jv), _mm256_and_si256(cv, vsv));
-                b += 8;
-            }
-            // SAFETY: the loop above wrote words 0..take of each buffer.
-            let (x, y, z) = unsafe {
-                (
-                    std::slice::from_raw_parts(xs.as_ptr().cast::<i32>(), take),
-                    std::slice::from_raw_parts(ys.as_ptr().cast::<i32>(), take),
-                    std::slice::from_raw_parts(zs.as_ptr().cast::<i32>(), take),
-                )
+    /// World coordinates of the middle columns after a start column, eight
+    /// columns per step, in fills of up to [`CHUNK`] voxels.
+    pub(crate) struct VoxelLanes {
+        lanes: Lanes,
+        /// World major axis (0, 1, 2) and the world axes of u and v.
+        axes: [usize; 3],
+        /// Lanes of the world coordinates along local m, u, v.
+        w: [__m256i; 3],
+        /// Whole-jump increments of m, u, v and the unit steps of u, v.
+        jump: [__m256i; 3],
+        unit: [__m256i; 2],
+    }
+
+    impl VoxelLanes {
+        /// Lanes for the columns after `cur` (the voxel of the state's
+        /// column); `steps`: world unit steps of local m, u, v.
+        ///
+        /// # Safety
+        /// The CPU must support AVX2 ([`available`]).
+        #[target_feature(enable = "avx2")]
+        pub(crate) unsafe fn new(cols: &MidColumns, cur: IVec3, steps: [IVec3; 3]) -> Self {
+            let ma = steps[0]
+                .abs()
+                .to_array()
+                .iter()
+                .position(|&c| c != 0)
+                .unwrap_or(0);
+            let (ua, va) = match ma {
+                0 => (1, 2),
+                1 => (0, 2),
+                _ => (0, 1),
             };
-            for i in 0..take {
-                acc = g(acc, IVec3::new(x[i], y[i], z[i]));
+            let (sm, su, sv) = (steps[0][ma], steps[1][ua], steps[2][va]);
+            let (lanes, [du, dv]) = Lanes::start(cols);
+            let iota1 = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 8);
+            let w = [
+                _mm256_add_epi32(
+                    _mm256_set1_epi32(cur[ma]),
+                    _mm256_sign_epi32(iota1, _mm256_set1_epi32(sm)),
+                ),
+                _mm256_add_epi32(
+                    _mm256_set1_epi32(cur[ua]),
+                    _mm256_sign_epi32(du, _mm256_set1_epi32(su)),
+                ),
+                _mm256_add_epi32(
+                    _mm256_set1_epi32(cur[va]),
+                    _mm256_sign_epi32(dv, _mm256_set1_epi32(sv)),
+                ),
+            ];
+            let jump = [
+                _mm256_set1_epi32(8 * sm),
+                _mm256_set1_epi32(lanes.q[0] * su),
+                _mm256_set1_epi32(lanes.q[1] * sv),
+            ];
+            let unit = [_mm256_set1_epi32(su), _mm256_set1_epi32(sv)];
+            VoxelLanes {
+                lanes,
+                axes: [ma, ua, va],
+                w,
+                jump,
+                unit,
             }
-            last = IVec3::new(x[take - 1], y[take - 1], z[take - 1]);
-            left -= take as u64;
         }
-        (acc, last)
-    }
 
-    /// Visits the linear indices of the next `n` middle columns after `idx`
-    /// (the index of the current column's voxel) in order; `off` are the
-    /// index offsets of local m, u, v. Returns the last index, or
-    /// `Err(index)` where the visitor stopped.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 ([`available`]); every index visited must
-    /// fit `i32` (the caller's grid has fewer than 2^31 cells).
-    #[target_feature(enable = "avx2")]
-    pub(crate) unsafe fn mid_indices<F: FnMut(usize) -> ControlFlow<()>>(
-        cols: &MidColumns,
-        idx: usize,
-        off: [isize; 3],
-        n: u64,
-        visit: &mut F,
-    ) -> Result<usize, usize> {
-        let (mut lanes, [du, dv]) = Lanes::start(cols);
-        // Wrapping i32 arithmetic: every in-grid index is below 2^31, so the
-        // lanes are exact modulo 2^32 and exact where they are read.
-        let [om, ou, ov] = off.map(|o| o as i32);
-        let iota1 = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 8);
-        let mut ix = _mm256_add_epi32(
-            _mm256_add_epi32(
-                _mm256_set1_epi32(idx as i32),
-                _mm256_mullo_epi32(iota1, _mm256_set1_epi32(om)),
-            ),
-            _mm256_add_epi32(
-                _mm256_mullo_epi32(du, _mm256_set1_epi32(ou)),
-                _mm256_mullo_epi32(dv, _mm256_set1_epi32(ov)),
-            ),
-        );
-        let (vou, vov) = (_mm256_set1_epi32(ou), _mm256_set1_epi32(ov));
-        let jump = _mm256_set1_epi32(
-            om.wrapping_mul(8)
-                .wrapping_add(lanes.q[0].wrapping_mul(ou))
-                .wrapping_add(lanes.q[1].wrapping_mul(ov)),
-        );
-        let mut buf = [MaybeUninit::<i32>::uninit(); BUF];
-        let mut last = idx;
-        let mut left = n;
-        while left > 0 {
-            let take = left.min(CHUNK as u64) as usize;
+        /// Writes the next `n ≤ CHUNK` voxels' world x, y, z into `xyz` and
+        /// returns them as slices.
+        ///
+        /// # Safety
+        /// The CPU must support AVX2 ([`available`]).
+        #[target_feature(enable = "avx2")]
+        pub(crate) unsafe fn fill<'b>(
+            &mut self,
+            xyz: &'b mut [Buffer; 3],
+            n: usize,
+        ) -> [&'b [i32]; 3] {
+            debug_assert!(n <= CHUNK);
+            let world: [*mut MaybeUninit<i32>; 3] = [
+                xyz[0].as_mut_ptr(),
+                xyz[1].as_mut_ptr(),
+                xyz[2].as_mut_ptr(),
+            ];
+            let local = self.axes.map(|w| world[w]);
             let mut b = 0;
-            while b < take {
-                // SAFETY: b + 8 ≤ take + 7 < BUF words; unaligned store.
-                unsafe { _mm256_storeu_si256(buf.as_mut_ptr().add(b).cast(), ix) };
-                let [cu, cv] = lanes.jump();
-                ix = _mm256_add_epi32(
-                    _mm256_add_epi32(ix, jump),
-                    _mm256_add_epi32(_mm256_and_si256(cu, vou), _mm256_and_si256(cv, vov)),
+            while b < n {
+                // SAFETY: b + 8 ≤ n + 7 < BUF words of each buffer.
+                unsafe {
+                    _mm256_storeu_si256(local[0].add(b).cast(), self.w[0]);
+                    _mm256_storeu_si256(local[1].add(b).cast(), self.w[1]);
+                    _mm256_storeu_si256(local[2].add(b).cast(), self.w[2]);
+                }
+                let [cu, cv] = self.lanes.jump();
+                self.w[0] = _mm256_add_epi32(self.w[0], self.jump[0]);
+                self.w[1] = _mm256_add_epi32(
+                    _mm256_add_epi32(self.w[1], self.jump[1]),
+                    _mm256_and_si256(cu, self.unit[0]),
+                );
+                self.w[2] = _mm256_add_epi32(
+                    _mm256_add_epi32(self.w[2], self.jump[2]),
+                    _mm256_and_si256(cv, self.unit[1]),
                 );
                 b += 8;
             }
-            // SAFETY: the loop above wrote words 0..take.
-            let ids = unsafe { std::slice::from_raw_parts(buf.as_ptr().cast::<i32>(), take) };
-            for &i in ids {
-                let i = i as u32 as usize;
-                if visit(i).is_break() {
-                    return Err(i);
-                }
-            }
-            last = ids[take - 1] as u32 as usize;
-            left -= take as u64;
+            let [x, y, z] = xyz;
+            [written(x, n), written(y, n), written(z, n)]
         }
-        Ok(last)
     }
+
+    /// Linear indices of the middle columns after a start column, eight
+    /// columns per step, in fills of up to [`CHUNK`] values.
+    pub(crate) struct IndexLanes {
+        lanes: Lanes,
+        ix: __m256i,
+        jump: __m256i,
+        off: [__m256i; 2],
+    }
+
+    impl IndexLanes {
+        /// Lanes for the columns after `idx` (the index of the state's
+        /// column's voxel); `off`: index offsets of local m, u, v. Indices
+        /// are `i32` in wrapping arithmetic: exact wherever they are in a
+        /// grid of fewer than 2^31 cells.
+        ///
+        /// # Safety
+        /// The CPU must support AVX2 ([`available`]).
+        #[target_feature(enable = "avx2")]
+        pub(crate) unsafe fn new(cols: &MidColumns, idx: usize, off: [isize; 3]) -> Self {
+            let (lanes, [du, dv]) = Lanes::start(cols);
+            let [om, ou, ov] = off.map(|o| o as i32);
+            let iota1 = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 8);
+            let ix = _mm256_add_epi32(
+                _mm256_add_epi32(
+                    _mm256_set1_epi32(idx as i32),
+                    _mm256_mullo_epi32(iota1, _mm256_set1_epi32(om)),
+                ),
+                _mm256_add_epi32(
+                    _mm256_mullo_epi32(du, _mm256_set1_epi32(ou)),
+                    _mm256_mullo_epi32(dv, _mm256_set1_epi32(ov)),
+                ),
+            );
+            let jump = _mm256_set1_epi32(
+                om.wrapping_mul(8)
+                    .wrapping_add(lanes.q[0].wrapping_mul(ou))
+                    .wrapping_add(lanes.q[1].wrapping_mul(ov)),
+            );
+            let off = [_mm256_set1_epi32(ou), _mm256_set1_epi32(ov)];
+            IndexLanes {
+                lanes,
+                ix,
+                jump,
+                off,
+            }
+        }
+
+        /// Writes the next `n ≤ CHUNK` indices into `buf` and returns them.
+        ///
+        /// # Safety
+        /// The CPU must support AVX2 ([`available`]).
+        #[target_feature(enable = "avx2")]
+        pub(crate) unsafe fn fill<'b>(&mut self, buf: &'b mut Buffer, n: usize) -> &'b [i32] {
+            debug_assert!(n <= CHUNK);
+            let mut b = 0;
+            while b < n {
+                // SAFETY: b + 8 ≤ n + 7 < BUF words; unaligned store.
+                unsafe { _mm256_storeu_si256(buf.as_mut_ptr().add(b).cast(), self.ix) };
+                let [cu, cv] = self.lanes.jump();
+                self.ix = _mm256_add_epi32(
+                    _mm256_add_epi32(self.ix, self.jump),
+                    _mm256_add_epi32(
+                        _mm256_and_si256(cu, self.off[0]),
+                        _mm256_and_si256(cv, self.off[1]),
+                    ),
+                );
+                b += 8;
+            }
+            written(buf, n)
+        }
+    }
+
+    /// The largest fill.
+    pub(crate) const FILL: usize = CHUNK;
+}
+
+/// Hands the voxels of the next `n` middle columns after `cur` (the voxel of
+/// the state's column) to `g`, in order; returns the accumulator and the last
+/// voxel. `steps`: world unit steps of local m, u, v. The loop over each fill
+/// runs here, outside the AVX2 functions, so `g` inlines into the caller.
+///
+/// # Safety
+/// The CPU must support AVX2 ([`avx2::available`]).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) unsafe fn mid_voxels<B, G: FnMut(B, glam::IVec3) -> B>(
+    cols: &avx2::MidColumns,
+    cur: glam::IVec3,
+    steps: [glam::IVec3; 3],
+    n: u64,
+    mut acc: B,
+    g: &mut G,
+) -> (B, glam::IVec3) {
+    // SAFETY (both calls): the caller guarantees AVX2.
+    let mut lanes = unsafe { avx2::VoxelLanes::new(cols, cur, steps) };
+    let mut xyz = [avx2::buffer(), avx2::buffer(), avx2::buffer()];
+    let mut last = cur;
+    let mut left = n;
+    while left > 0 {
+        let take = left.min(avx2::FILL as u64) as usize;
+        let [x, y, z] = unsafe { lanes.fill(&mut xyz, take) };
+        for i in 0..take {
+            acc = g(acc, glam::IVec3::new(x[i], y[i], z[i]));
+        }
+        last = glam::IVec3::new(x[take - 1], y[take - 1], z[take - 1]);
+        left -= take as u64;
+    }
+    (acc, last)
+}
+
+/// Visits the linear indices of the next `n` middle columns after `idx`
+/// (the index of the state's column's voxel) in order; `off`: index offsets
+/// of local m, u, v. Returns the last index, or `Err(index)` where the
+/// visitor stopped.
+///
+/// # Safety
+/// The CPU must support AVX2 ([`avx2::available`]), and every index visited
+/// must be below 2^31 (a grid of fewer than 2^31 cells, the line clipped to
+/// it).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) unsafe fn mid_indices<F: FnMut(usize) -> std::ops::ControlFlow<()>>(
+    cols: &avx2::MidColumns,
+    idx: usize,
+    off: [isize; 3],
+    n: u64,
+    visit: &mut F,
+) -> Result<usize, usize> {
+    // SAFETY (both calls): the caller guarantees AVX2.
+    let mut lanes = unsafe { avx2::IndexLanes::new(cols, idx, off) };
+    let mut buf = avx2::buffer();
+    let mut last = idx;
+    let mut left = n;
+    while left > 0 {
+        let take = left.min(avx2::FILL as u64) as usize;
+        let ids = unsafe { lanes.fill(&mut buf, take) };
+        for &i in ids {
+            let i = i as u32 as usize;
+            if visit(i).is_break() {
+                return Err(i);
+            }
+        }
+        last = ids[take - 1] as u32 as usize;
+        left -= take as u64;
+    }
+    Ok(last)
 }

@@ -21,6 +21,8 @@
 //!   closed segment (all voxels lie on the tripod path of the shifted line).
 //! * Integer endpoints: exactly `d26(V0, V1) + 1` voxels.
 
+use std::ops::ControlFlow;
+
 use glam::IVec3;
 
 use super::clip::GridBox;
@@ -509,15 +511,15 @@ impl General26 {
     /// # Safety
     /// The CPU must support AVX2.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
+    #[inline(always)]
     unsafe fn fold_avx2<B, G: FnMut(B, IVec3) -> B>(self, init: B, g: G) -> B {
-        use super::lanes::avx2::{MidColumns, mid_voxels};
+        use super::lanes::{avx2::MidColumns, mid_voxels};
         self.run(init, g, |mid, cur, steps, n, acc, g| {
             if let AnyMid::Narrow(s) = mid
                 && n >= LANES_MIN_COLUMNS
                 && let Some(cols) = MidColumns::new([s.eu, s.ev], [s.dm, s.du, s.dv])
             {
-                // SAFETY: this function runs only where AVX2 is available.
+                // SAFETY: the caller checked AVX2.
                 unsafe { mid_voxels(&cols, cur, [steps[1], steps[2], steps[4]], n, acc, g) }
             } else {
                 scalar_mid(mid, cur, steps, n, acc, g)
@@ -606,8 +608,10 @@ impl std::iter::FusedIterator for Line26 {}
 /// (`1 ≤ c < M`), `last` = `V1`. The same voxels as [`General26`] (unit
 /// test `compact_equals_general`), at a fraction of the set-up.
 #[derive(Clone, Copy, Debug)]
-struct Compact26 {
+pub(crate) struct Compact26 {
     cur: IVec3,
+    /// The end voxel `V1`.
+    end: IVec3,
     /// Position of `cur`; past `last` when exhausted.
     pos: u64,
     last: u64,
@@ -626,7 +630,7 @@ impl Compact26 {
     /// [`Cursor26::at`] for the narrow case, or `None` where the general
     /// iterator is needed.
     #[inline]
-    fn new(seg: &Segment) -> Option<Self> {
+    pub(crate) fn new(seg: &Segment) -> Option<Self> {
         use super::segment::tie_perturbation_negative;
         use crate::fixed::{FRAC_BITS, HALF, ONE};
         // Straight-line and branch-free where the outcome varies from line
@@ -664,6 +668,7 @@ impl Compact26 {
         };
         let steps = [unit(im), unit(iu), unit(iv)];
         let cur = IVec3::new(v0w[0] as i32, v0w[1] as i32, v0w[2] as i32);
+        let end = IVec3::new(v1w[0] as i32, v1w[1] as i32, v1w[2] as i32);
         let (sdm, sdu, sdv) = (dm * ONE, du * ONE, dv * ONE);
         // Local move mask of steps of 0 or 1 along u and v (and `m` along m).
         let mask = |m: i64, u: i64, v: i64| -> Option<u8> {
@@ -673,6 +678,7 @@ impl Compact26 {
             let pre = mask(mm, eu, ev)?;
             return Some(Compact26 {
                 cur,
+                end,
                 pos: 0,
                 last: u64::from(pre != 0),
                 mid: Mid26State {
@@ -714,6 +720,7 @@ impl Compact26 {
         };
         Some(Compact26 {
             cur,
+            end,
             pos: 0,
             last: mm as u64,
             mid,
@@ -721,6 +728,98 @@ impl Compact26 {
             post,
             steps,
         })
+    }
+
+    /// The voxel at the current position.
+    #[inline]
+    pub(crate) fn start(&self) -> IVec3 {
+        self.cur
+    }
+
+    /// Whether the whole line lies in the box `0..dims` (it is monotone
+    /// between its end voxels, so they decide).
+    #[inline]
+    pub(crate) fn inside(&self, dims: crate::grid::Dims) -> bool {
+        let ok = |v: IVec3| (0..3).all(|k| v[k] >= 0 && (v[k] as u64) < dims[k] as u64);
+        ok(self.cur) && ok(self.end)
+    }
+
+    /// Visits the linear indices of a fresh line lying wholly in a grid
+    /// (`inside`): `idx` is the start voxel's index, `stride` the index
+    /// steps of world x, y, z. `small`: the grid has fewer than 2^31 cells
+    /// (the AVX2 lanes may run the middle). Returns the number visited, or
+    /// `Err(index)` where the visitor stopped.
+    #[inline]
+    pub(crate) fn walk<F: FnMut(usize) -> ControlFlow<()>>(
+        &self,
+        idx: usize,
+        stride: [isize; 3],
+        small: bool,
+        visit: &mut F,
+    ) -> Result<u64, usize> {
+        debug_assert_eq!(self.pos, 0, "walk of a started line");
+        let axis = self
+            .steps
+            .map(|s| (0..3).map(|w| s[w] as isize * stride[w]).sum::<isize>());
+        let off =
+            |mask: u8| -> isize { (0..3).filter(|k| mask >> k & 1 == 1).map(|k| axis[k]).sum() };
+        let mut idx = idx;
+        if visit(idx).is_break() {
+            return Err(idx);
+        }
+        if self.last == 0 {
+            return Ok(1);
+        }
+        idx = idx.wrapping_add_signed(off(self.pre));
+        if visit(idx).is_break() {
+            return Err(idx);
+        }
+        if self.last == 1 {
+            return Ok(2);
+        }
+        let n = self.last - 2;
+        if n > 0 {
+            idx = self.walk_mid(idx, axis, n, small, visit)?;
+        }
+        idx = idx.wrapping_add_signed(off(self.post));
+        if visit(idx).is_break() {
+            return Err(idx);
+        }
+        Ok(self.last + 1)
+    }
+
+    /// The middle columns `2..M` of [`Compact26::walk`] after column 1's
+    /// index `idx`; returns the last index.
+    #[inline(always)]
+    fn walk_mid<F: FnMut(usize) -> ControlFlow<()>>(
+        &self,
+        mut idx: usize,
+        axis: [isize; 3],
+        n: u64,
+        small: bool,
+        visit: &mut F,
+    ) -> Result<usize, usize> {
+        let s = self.mid;
+        #[cfg(target_arch = "x86_64")]
+        if small && n >= LANES_MIN_COLUMNS && super::lanes::avx2::available() {
+            use super::lanes::{avx2::MidColumns, mid_indices};
+            if let Some(cols) = MidColumns::new([s.eu, s.ev], [s.dm, s.du, s.dv]) {
+                // SAFETY: AVX2 is available; every index visited is an
+                // in-grid cell of a grid with fewer than 2^31 cells.
+                return unsafe { mid_indices(&cols, idx, axis, n, visit) };
+            }
+        }
+        let _ = small;
+        let mut s = s;
+        let mask_off: [isize; 8] =
+            std::array::from_fn(|m| (0..3).filter(|k| m >> k & 1 == 1).map(|k| axis[k]).sum());
+        for _ in 0..n {
+            idx = idx.wrapping_add_signed(mask_off[s.step()]);
+            if visit(idx).is_break() {
+                return Err(idx);
+            }
+        }
+        Ok(idx)
     }
 
     /// World step of local move mask `mask`.
@@ -817,12 +916,12 @@ impl Compact26 {
     /// # Safety
     /// The CPU must support AVX2.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
+    #[inline(always)]
     unsafe fn fold_avx2<B, G: FnMut(B, IVec3) -> B>(self, init: B, g: G) -> B {
-        use super::lanes::avx2::{MidColumns, mid_voxels};
+        use super::lanes::{avx2::MidColumns, mid_voxels};
         self.run(init, g, |s, cur, steps, n, acc, g| {
             match MidColumns::new([s.eu, s.ev], [s.dm, s.du, s.dv]) {
-                // SAFETY: this function runs only where AVX2 is available.
+                // SAFETY: the caller checked AVX2.
                 Some(cols) => unsafe {
                     mid_voxels(&cols, cur, [steps[1], steps[2], steps[4]], n, acc, g)
                 },

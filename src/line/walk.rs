@@ -13,7 +13,7 @@ use crate::metric::Connectivity;
 
 use super::clip::{GridBox, tripod_range};
 use super::line18::Cursor18;
-use super::line26::{AnyMid, Cursor26, Mid26State, Plan26};
+use super::line26::{AnyMid, Compact26, Cursor26, Mid26State, Plan26};
 use super::segment::{DecisionInt, Frame, Segment};
 use super::tripod6::{AnyTripod, TripodState};
 
@@ -194,7 +194,10 @@ fn lanes_mid<F: FnMut(usize) -> ControlFlow<()>>(
     n: u64,
     visit: &mut F,
 ) -> Option<Result<usize, usize>> {
-    use super::lanes::avx2::{MidColumns, available, mid_indices};
+    use super::lanes::{
+        avx2::{MidColumns, available},
+        mid_indices,
+    };
     let cells = dims.iter().try_fold(1usize, |a, &d| a.checked_mul(d));
     if n < 8 || cells.is_none_or(|c| c >= 1 << 31) || !available() {
         return None;
@@ -363,9 +366,21 @@ fn dispatch<F: FnMut(usize) -> ControlFlow<()>>(
     conn: Connectivity,
     visit: &mut F,
 ) -> Result<u64, usize> {
+    let dims = shape.dims;
+    if conn == Connectivity::TwentySix
+        && let Some(c) = Compact26::new(seg)
+        && c.inside(dims)
+    {
+        // The common case: a narrow line wholly in the grid, no clipping.
+        let small = dims
+            .iter()
+            .try_fold(1usize, |a, &d| a.checked_mul(d))
+            .is_some_and(|c| c < 1 << 31);
+        let stride = [1, dims[0] as isize, (dims[0] * dims[1]) as isize];
+        return c.walk(shape.index(c.start()), stride, small, visit);
+    }
     let f = Frame::new(seg);
     let off = Offsets::new(&shape.table, &f);
-    let dims = shape.dims;
     let start = |v: Voxel| shape.index(v);
     match conn {
         Connectivity::Six => walk_tripod(dims, &off, &f, start, visit),
@@ -410,7 +425,10 @@ pub fn walk_mut<T>(
     let shape = GridShape::of(grid);
     let len = grid.len();
     let ptr = grid.as_mut_slice().as_mut_ptr();
-    let mut by_index = |i: usize| {
+    let visit = &mut visit;
+    // `move`: the pointer itself, not a reference to it, in the closure, so
+    // the loops keep it in a register across the visitor's stores.
+    let mut by_index = move |i: usize| {
         debug_assert!(i < len, "walk left the grid: index {i} of {len}");
         // SAFETY: clipping guarantees that every visited voxel lies in the
         // grid box, so `i` is the linear index of an in-grid cell (`i < len`);
@@ -433,7 +451,8 @@ pub fn walk<T>(
 ) -> WalkOutcome {
     let shape = GridShape::of(grid);
     let cells = grid.as_slice();
-    let mut by_index = |i: usize| {
+    let visit = &mut visit;
+    let mut by_index = move |i: usize| {
         debug_assert!(i < cells.len());
         // SAFETY: as in `walk_mut`: every visited index is in-grid.
         visit(unsafe { cells.get_unchecked(i) })
