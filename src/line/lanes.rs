@@ -371,6 +371,116 @@ pub(crate) mod avx2 {
 
     /// The largest fill.
     pub(crate) const FILL: usize = CHUNK;
+
+    /// The tripod's columns, eight per step: for each column its code
+    /// (bit 0: one u step in the column, bit 1: one v step, bit 2: the v face
+    /// comes first), in fills of up to [`CHUNK`] codes. See
+    /// [`super::tripod_voxels`] for the derivation.
+    pub(crate) struct TripodLanes {
+        lanes: Lanes,
+        /// `D_m − D_k − 1`: a column steps along k iff the previous column's
+        /// remainder exceeds it.
+        step_at: [__m256i; 2],
+        /// `e_vu / S` (floored) at each lane column's entry voxel, its
+        /// whole-jump increment and the per-carry changes.
+        e: __m256i,
+        e_jump: __m256i,
+        du: __m256i,
+        dv: __m256i,
+    }
+
+    impl TripodLanes {
+        /// Lanes for the columns after the exit voxel of column `c`, from its
+        /// exit remainders `r = [R_u(c), R_v(c)]` and `e = floor(e_vu / S)`
+        /// there.
+        ///
+        /// # Safety
+        /// The CPU must support AVX2 ([`available`]).
+        #[target_feature(enable = "avx2")]
+        pub(crate) unsafe fn new(r: [i32; 2], e: i32, d: [i32; 3]) -> Self {
+            let [dm, du, dv] = d;
+            let vdm = _mm256_set1_epi32(dm);
+            let iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+            // Lane i holds the previous column, c + i: T = R + i·D ∈ [0, 8·D_m).
+            let axis = |r: i32, d: i32| -> (__m256i, __m256i) {
+                let t = _mm256_add_epi32(
+                    _mm256_set1_epi32(r),
+                    _mm256_mullo_epi32(iota, _mm256_set1_epi32(d)),
+                );
+                let mut q = _mm256_setzero_si256();
+                let mut threshold = _mm256_set1_epi32(dm - 1);
+                for _ in 1..8 {
+                    q = _mm256_sub_epi32(q, _mm256_cmpgt_epi32(t, threshold));
+                    threshold = _mm256_add_epi32(threshold, vdm);
+                }
+                (_mm256_sub_epi32(t, _mm256_mullo_epi32(q, vdm)), q)
+            };
+            let (ru, qu) = axis(r[0], du);
+            let (rv, qv) = axis(r[1], dv);
+            let (vdu, vdv) = (_mm256_set1_epi32(du), _mm256_set1_epi32(dv));
+            // e_vu changes by −D_v per u step and +D_u per v step.
+            let e = _mm256_add_epi32(
+                _mm256_set1_epi32(e),
+                _mm256_sub_epi32(_mm256_mullo_epi32(qv, vdu), _mm256_mullo_epi32(qu, vdv)),
+            );
+            let jump = |d: i32| ((8 * d) / dm, (8 * d) % dm);
+            let (qju, rhou) = jump(du);
+            let (qjv, rhov) = jump(dv);
+            let e_jump = _mm256_set1_epi32(qjv.wrapping_mul(du).wrapping_sub(qju.wrapping_mul(dv)));
+            TripodLanes {
+                lanes: Lanes {
+                    r: [ru, rv],
+                    rho: [_mm256_set1_epi32(rhou), _mm256_set1_epi32(rhov)],
+                    dm: vdm,
+                    dm_minus_one: _mm256_set1_epi32(dm - 1),
+                    q: [qju, qjv],
+                },
+                step_at: [
+                    _mm256_set1_epi32(dm - du - 1),
+                    _mm256_set1_epi32(dm - dv - 1),
+                ],
+                e,
+                e_jump,
+                du: vdu,
+                dv: vdv,
+            }
+        }
+
+        /// Writes the codes of the next `n ≤ CHUNK` columns into `buf` and
+        /// returns them.
+        ///
+        /// # Safety
+        /// The CPU must support AVX2 ([`available`]).
+        #[target_feature(enable = "avx2")]
+        pub(crate) unsafe fn fill<'b>(&mut self, buf: &'b mut Buffer, n: usize) -> &'b [i32] {
+            debug_assert!(n <= CHUNK);
+            let (one, two, four) = (
+                _mm256_set1_epi32(1),
+                _mm256_set1_epi32(2),
+                _mm256_set1_epi32(4),
+            );
+            let mut b = 0;
+            while b < n {
+                let [ru, rv] = self.lanes.r;
+                let su = _mm256_cmpgt_epi32(ru, self.step_at[0]);
+                let sv = _mm256_cmpgt_epi32(rv, self.step_at[1]);
+                let vfirst = _mm256_cmpgt_epi32(_mm256_setzero_si256(), self.e);
+                let code = _mm256_or_si256(
+                    _mm256_or_si256(_mm256_and_si256(su, one), _mm256_and_si256(sv, two)),
+                    _mm256_and_si256(vfirst, four),
+                );
+                // SAFETY: b + 8 ≤ n + 7 < BUF words; unaligned store.
+                unsafe { _mm256_storeu_si256(buf.as_mut_ptr().add(b).cast(), code) };
+                let [cu, cv] = self.lanes.jump();
+                self.e = _mm256_add_epi32(
+                    _mm256_add_epi32(self.e, self.e_jump),
+                    _mm256_sub_epi32(_mm256_and_si256(cv, self.du), _mm256_and_si256(cu, self.dv)),
+                );
+                b += 8;
+            }
+            written(buf, n)
+        }
+    }
 }
 
 /// Hands the voxels of the next `n` middle columns after `cur` (the voxel of
@@ -443,4 +553,167 @@ pub(crate) unsafe fn mid_indices<F: FnMut(usize) -> std::ops::ControlFlow<()>>(
         left -= take as u64;
     }
     Ok(last)
+}
+
+/// Columns per fill of the tripod's emission buffers (a column emits up to
+/// three voxels).
+#[cfg(target_arch = "x86_64")]
+const TRIPOD_FILL: usize = 64;
+
+/// Per column code (see [`avx2::TripodLanes`]): the voxels emitted, the step
+/// to the column's exit voxel (table index `code & 3`), the step to its
+/// middle voxel when it has two minor steps.
+#[cfg(target_arch = "x86_64")]
+const TRIPOD_COUNT: [usize; 8] = [1, 2, 2, 3, 1, 2, 2, 3];
+
+/// Hands the tripod voxels of the `k` columns after the exit voxel `x` of
+/// the current column to `g`, in order; returns the accumulator and the exit
+/// voxel of the last of them. `r`, `e`: the exit remainders and the floored
+/// `e_vu / S` at `x` (see [`avx2::TripodLanes::new`]); `steps`: world unit
+/// steps of local m, u, v.
+///
+/// A tripod column `c` (the voxels with local m coordinate `c`) is entered by
+/// an m step and holds one or two more voxels for its minor steps: the line
+/// crosses the u face of its column at most once (`D_u ≤ D_m`), and it does
+/// iff the exit numerator of the previous column, `D_u·c + G_u`, leaves a
+/// remainder of at least `D_m − D_u` (the tripod's exit voxel along u is
+/// `floor((D_u·c + G_u) / D_m)`, the 26-line's formula half a column later).
+/// With both steps, `e_vu < 0` puts the v face first. The codes come eight
+/// columns at a time from the lanes; the voxels are written branch-free
+/// (each column stores its entry, middle and exit voxel at fixed offsets
+/// from a cursor that advances by the column's count).
+///
+/// # Safety
+/// The CPU must support AVX2 ([`avx2::available`]).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) unsafe fn tripod_voxels<B, G: FnMut(B, glam::IVec3) -> B>(
+    r: [i32; 2],
+    e: i32,
+    d: [i32; 3],
+    x: glam::IVec3,
+    steps: [glam::IVec3; 3],
+    k: u64,
+    mut acc: B,
+    g: &mut G,
+) -> (B, glam::IVec3) {
+    use std::arch::x86_64::{__m128i, _mm_add_epi32, _mm_loadu_si128, _mm_storeu_si128};
+    use std::mem::MaybeUninit;
+    let v4 = |v: glam::IVec3| -> __m128i {
+        let a = [v.x, v.y, v.z, 0];
+        // SAFETY: an unaligned load of four i32.
+        unsafe { _mm_loadu_si128(a.as_ptr().cast()) }
+    };
+    let [m, u, v] = steps;
+    let delta = [glam::IVec3::ZERO, u, v, u + v].map(v4);
+    let first: [__m128i; 8] = std::array::from_fn(|c| match c {
+        1 | 5 => v4(u),
+        2 | 6 => v4(v),
+        3 => v4(u),
+        7 => v4(v),
+        _ => v4(glam::IVec3::ZERO),
+    });
+    let step_m = v4(m);
+    // SAFETY: SSE2 is part of the x86-64 baseline.
+    let add = |a: __m128i, b: __m128i| unsafe { _mm_add_epi32(a, b) };
+    // SAFETY (both calls): the caller guarantees AVX2.
+    let mut lanes = unsafe { avx2::TripodLanes::new(r, e, d) };
+    let mut codes = avx2::buffer();
+    let mut out = [MaybeUninit::<[i32; 4]>::uninit(); 3 * TRIPOD_FILL + 2];
+    let mut exit = v4(x);
+    let mut left = k;
+    while left > 0 {
+        let take = left.min(TRIPOD_FILL as u64) as usize;
+        let cs = unsafe { lanes.fill(&mut codes, take) };
+        let base = out.as_mut_ptr().cast::<__m128i>();
+        let mut p = 0usize;
+        for &c in cs {
+            let c = (c & 7) as usize;
+            let entry = add(exit, step_m);
+            exit = add(entry, delta[c & 3]);
+            let n = TRIPOD_COUNT[c];
+            // SAFETY: p + 2 < 3·TRIPOD_FILL + 2 (at most three voxels per
+            // column); unaligned stores of four i32.
+            unsafe {
+                _mm_storeu_si128(base.add(p), entry);
+                _mm_storeu_si128(base.add(p + 1), add(entry, first[c]));
+                _mm_storeu_si128(base.add(p + n - 1), exit);
+            }
+            p += n;
+        }
+        // SAFETY: the loop wrote entries 0..p.
+        let vs = unsafe { std::slice::from_raw_parts(out.as_ptr().cast::<[i32; 4]>(), p) };
+        for w in vs {
+            acc = g(acc, glam::IVec3::new(w[0], w[1], w[2]));
+        }
+        left -= take as u64;
+    }
+    let mut last = [0i32; 4];
+    // SAFETY: an unaligned store of four i32.
+    unsafe { _mm_storeu_si128(last.as_mut_ptr().cast(), exit) };
+    (acc, glam::IVec3::new(last[0], last[1], last[2]))
+}
+
+/// [`tripod_voxels`] for a grid walk: visits the linear indices of the
+/// tripod voxels of the `k` columns after the exit voxel's index `x`; `off`:
+/// index offsets of local m, u, v. Returns the index of the last column's
+/// exit voxel and the u and v steps taken, or `Err(index)` where the visitor
+/// stopped.
+///
+/// # Safety
+/// The CPU must support AVX2 ([`avx2::available`]).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) unsafe fn tripod_indices<F: FnMut(usize) -> std::ops::ControlFlow<()>>(
+    r: [i32; 2],
+    e: i32,
+    d: [i32; 3],
+    x: usize,
+    off: [isize; 3],
+    k: u64,
+    visit: &mut F,
+) -> Result<(usize, [i64; 2]), usize> {
+    use std::mem::MaybeUninit;
+    let [om, ou, ov] = off;
+    let delta = [0, ou, ov, ou + ov];
+    let first: [isize; 8] = [0, ou, ov, ou, 0, ou, ov, ov];
+    // SAFETY (both calls): the caller guarantees AVX2.
+    let mut lanes = unsafe { avx2::TripodLanes::new(r, e, d) };
+    let mut codes = avx2::buffer();
+    let mut out = [MaybeUninit::<usize>::uninit(); 3 * TRIPOD_FILL + 2];
+    let mut exit = x;
+    let mut moved = [0i64; 2];
+    let mut left = k;
+    while left > 0 {
+        let take = left.min(TRIPOD_FILL as u64) as usize;
+        let cs = unsafe { lanes.fill(&mut codes, take) };
+        let base = out.as_mut_ptr().cast::<usize>();
+        let mut p = 0usize;
+        for &c in cs {
+            let c = (c & 7) as usize;
+            moved[0] += (c & 1) as i64;
+            moved[1] += (c >> 1 & 1) as i64;
+            let entry = exit.wrapping_add_signed(om);
+            exit = entry.wrapping_add_signed(delta[c & 3]);
+            let n = TRIPOD_COUNT[c];
+            // SAFETY: p + 2 < 3·TRIPOD_FILL + 2 (at most three voxels per
+            // column).
+            unsafe {
+                base.add(p).write(entry);
+                base.add(p + 1).write(entry.wrapping_add_signed(first[c]));
+                base.add(p + n - 1).write(exit);
+            }
+            p += n;
+        }
+        // SAFETY: the loop wrote entries 0..p.
+        let ids = unsafe { std::slice::from_raw_parts(out.as_ptr().cast::<usize>(), p) };
+        for &i in ids {
+            if visit(i).is_break() {
+                return Err(i);
+            }
+        }
+        left -= take as u64;
+    }
+    Ok((exit, moved))
 }

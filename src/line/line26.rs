@@ -26,7 +26,7 @@ use std::ops::ControlFlow;
 use glam::IVec3;
 
 use super::clip::GridBox;
-use super::segment::{DecisionInt, Frame, Segment};
+use super::segment::{DecisionInt, Frame, LeanFrame, Segment};
 use super::tripod6::TripodState;
 
 /// The Fig. 4 stepping state: two midpoint variables and their forward
@@ -631,44 +631,12 @@ impl Compact26 {
     /// iterator is needed.
     #[inline]
     pub(crate) fn new(seg: &Segment) -> Option<Self> {
-        use super::segment::tie_perturbation_negative;
-        use crate::fixed::{FRAC_BITS, HALF, ONE};
-        // Straight-line and branch-free where the outcome varies from line
-        // to line (major axis, signs, ties): a mispredicted branch costs as
-        // much as the rest of the set-up.
-        const PERMS: [[usize; 3]; 3] = [[0, 1, 2], [1, 0, 2], [2, 0, 1]];
-        let (a, b) = (seg.a(), seg.b());
-        let v0w = a.map(|c| (c + HALF) >> FRAC_BITS);
-        let v1w = b.map(|c| (c + HALF) >> FRAC_BITS);
-        let wsign: [i64; 3] = std::array::from_fn(|k| ((b[k] - a[k]) >> 63) | 1);
-        let wd: [i64; 3] = std::array::from_fn(|k| (b[k] - a[k]).abs());
-        let m01 = usize::from(wd[1] > wd[0]);
-        let m = if wd[2] > wd[m01] { 2 } else { m01 };
-        let [im, iu, iv] = PERMS[m];
-        let (dm, du, dv) = (wd[im], wd[iu], wd[iv]);
-        if dm > super::segment::NARROW_MAX_DELTA {
-            return None;
-        }
-        let local = |w: usize| {
-            (
-                wsign[w] * (a[w] - v0w[w] * ONE),
-                wsign[w] * (v1w[w] - v0w[w]),
-            )
-        };
-        let (am, mm) = local(im);
-        let (au, eu) = local(iu);
-        let (av, ev) = local(iv);
-        let unit = |w: usize| {
-            let s = wsign[w] as i32;
-            IVec3::new(
-                s * i32::from(w == 0),
-                s * i32::from(w == 1),
-                s * i32::from(w == 2),
-            )
-        };
-        let steps = [unit(im), unit(iu), unit(iv)];
-        let cur = IVec3::new(v0w[0] as i32, v0w[1] as i32, v0w[2] as i32);
-        let end = IVec3::new(v1w[0] as i32, v1w[1] as i32, v1w[2] as i32);
+        use crate::fixed::{HALF, ONE};
+        let f = LeanFrame::new(seg)?;
+        let [dm, du, dv] = f.d;
+        let [am, au, av] = f.a;
+        let [mm, eu, ev] = f.end;
+        let (cur, end, steps) = (f.start, f.end_voxel, f.steps);
         let (sdm, sdu, sdv) = (dm * ONE, du * ONE, dv * ONE);
         // Local move mask of steps of 0 or 1 along u and v (and `m` along m).
         let mask = |m: i64, u: i64, v: i64| -> Option<u8> {
@@ -693,8 +661,7 @@ impl Compact26 {
                 steps,
             });
         }
-        let bias_u = i64::from(tie_perturbation_negative(&wd, &wsign, im, iu));
-        let bias_v = i64::from(tie_perturbation_negative(&wd, &wsign, im, iv));
+        let (bias_u, bias_v) = (f.bias(0, 1), f.bias(0, 2));
         // Columns 1 and M − 1 as Frame::centre_first / centre_last (same
         // bounds: each quotient takes three comparisons).
         let den = sdm;
@@ -740,8 +707,7 @@ impl Compact26 {
     /// between its end voxels, so they decide).
     #[inline]
     pub(crate) fn inside(&self, dims: crate::grid::Dims) -> bool {
-        let ok = |v: IVec3| (0..3).all(|k| v[k] >= 0 && (v[k] as u64) < dims[k] as u64);
-        ok(self.cur) && ok(self.end)
+        super::walk::in_box(self.cur, dims) && super::walk::in_box(self.end, dims)
     }
 
     /// Visits the linear indices of a fresh line lying wholly in a grid

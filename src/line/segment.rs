@@ -234,6 +234,87 @@ pub(crate) fn tie_perturbation_negative(
     first + i64::from(first == 0) * second < 0
 }
 
+/// The local frame of a narrow segment (no axis longer than 2^20 voxels),
+/// computed straight-line: the same quantities as [`Frame::new`] for the
+/// compact 26-line and tripod iterators, without the general frame's
+/// `i128` and clipping fields. Branch-free where the outcome varies from
+/// line to line (major axis, signs): a mispredicted branch costs as much as
+/// the rest of a line's set-up.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LeanFrame {
+    /// World start and end voxels.
+    pub start: IVec3,
+    pub end_voxel: IVec3,
+    /// World axis of each local axis (m, u, v).
+    pub perm: [usize; 3],
+    /// Local direction components `D ≥ 0` (fixed point), `d[0]` the largest.
+    pub d: [i64; 3],
+    /// Local start point relative to the centre of `V0` (fixed point).
+    pub a: [i64; 3],
+    /// Local end voxel.
+    pub end: [i64; 3],
+    /// World unit steps of local m, u, v.
+    pub steps: [IVec3; 3],
+    wd: [i64; 3],
+    wsign: [i64; 3],
+}
+
+impl LeanFrame {
+    /// The frame of `seg`, or `None` if it is wide.
+    #[inline(always)]
+    pub(crate) fn new(seg: &Segment) -> Option<Self> {
+        const PERMS: [[usize; 3]; 3] = [[0, 1, 2], [1, 0, 2], [2, 0, 1]];
+        let (a, b) = (seg.a, seg.b);
+        let v0w = a.map(|c| (c + HALF) >> fixed::FRAC_BITS);
+        let v1w = b.map(|c| (c + HALF) >> fixed::FRAC_BITS);
+        let wsign: [i64; 3] = std::array::from_fn(|k| ((b[k] - a[k]) >> 63) | 1);
+        let wd: [i64; 3] = std::array::from_fn(|k| (b[k] - a[k]).abs());
+        let m01 = usize::from(wd[1] > wd[0]);
+        let m = if wd[2] > wd[m01] { 2 } else { m01 };
+        let perm = PERMS[m];
+        if wd[perm[0]] > NARROW_MAX_DELTA {
+            return None;
+        }
+        let local = |w: usize| {
+            (
+                wsign[w] * (a[w] - v0w[w] * ONE),
+                wsign[w] * (v1w[w] - v0w[w]),
+            )
+        };
+        let unit = |w: usize| {
+            let s = wsign[w] as i32;
+            IVec3::new(
+                s * i32::from(w == 0),
+                s * i32::from(w == 1),
+                s * i32::from(w == 2),
+            )
+        };
+        let [(am, em), (au, eu), (av, ev)] = perm.map(local);
+        Some(LeanFrame {
+            start: IVec3::new(v0w[0] as i32, v0w[1] as i32, v0w[2] as i32),
+            end_voxel: IVec3::new(v1w[0] as i32, v1w[1] as i32, v1w[2] as i32),
+            perm,
+            d: perm.map(|w| wd[w]),
+            a: [am, au, av],
+            end: [em, eu, ev],
+            steps: perm.map(unit),
+            wd,
+            wsign,
+        })
+    }
+
+    /// The tie bias (0 or 1) of the decision variable of local axes `(i, j)`.
+    #[inline(always)]
+    pub(crate) fn bias(&self, i: usize, j: usize) -> i64 {
+        i64::from(tie_perturbation_negative(
+            &self.wd,
+            &self.wsign,
+            self.perm[i],
+            self.perm[j],
+        ))
+    }
+}
+
 /// The mirrored, permuted frame of a segment (see the module docs).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Frame {

@@ -20,10 +20,12 @@
 //! * Containment: the union of the closed voxels covers the closed segment.
 //! * The voxel *set* of `a→b` equals that of `b→a` (world-shift tie rule).
 
+use std::ops::ControlFlow;
+
 use glam::IVec3;
 
 use super::clip::{GridBox, tripod_range};
-use super::segment::{DecisionInt, Frame, Segment};
+use super::segment::{DecisionInt, Frame, LeanFrame, Segment};
 
 /// The stepping state of the tripod: three decision variables and the three
 /// scaled direction components. `Copy`, no coordinates: a walk moves a
@@ -151,13 +153,47 @@ pub struct Tripod6 {
     /// needs no bounds check for a 2-bit index).
     steps: [IVec3; 4],
     remaining: u64,
+    /// Steps left along local m, u, v to the end voxel (their sum is
+    /// `remaining − 1` unless the line is clipped short).
+    left: [u64; 3],
 }
 
 impl Tripod6 {
     /// The whole line of `seg`.
     #[inline]
     pub fn new(seg: &Segment) -> Self {
-        Self::from_frame(&Frame::new(seg))
+        match LeanFrame::new(seg) {
+            Some(f) => Self::from_lean(&f),
+            None => Self::from_frame(&Frame::new(seg)),
+        }
+    }
+
+    /// The narrow set-up: the decision variables at the start voxel from
+    /// the lean frame (the same values as [`TripodState::at`]).
+    #[inline]
+    fn from_lean(f: &LeanFrame) -> Self {
+        use crate::fixed::{HALF, ONE};
+        let [dm, du, dv] = f.d;
+        let [rm, ru, rv] = f.a.map(|a| HALF - a);
+        // Bound as in Frame::tripod_e64: |e| ≤ S·D_m + 1 at path voxels.
+        let e = [
+            du * rm - dm * ru - f.bias(0, 1),
+            dv * rm - dm * rv - f.bias(0, 2),
+            du * rv - dv * ru - f.bias(2, 1),
+        ];
+        let [sm, su, sv] = f.steps;
+        Tripod6 {
+            state: AnyTripod::Narrow(TripodState {
+                e,
+                dm: dm * ONE,
+                du: du * ONE,
+                dv: dv * ONE,
+            }),
+            cur: f.start,
+            steps: [sm, su, sv, IVec3::ZERO],
+            remaining: f.end.iter().sum::<i64>() as u64 + 1,
+            left: f.end.map(|x| x as u64),
+        }
     }
 
     #[inline]
@@ -168,6 +204,7 @@ impl Tripod6 {
             cur: f.voxel_world([0; 3]),
             steps: steps4(&f),
             remaining: f.tripod_steps() + 1,
+            left: f.end.map(|x| x as u64),
         }
     }
 
@@ -181,12 +218,14 @@ impl Tripod6 {
                 cur: f.voxel_world(c),
                 steps: steps4(&f),
                 remaining: n,
+                left: std::array::from_fn(|k| (f.end[k] - c[k]) as u64),
             },
             None => Tripod6 {
                 state: AnyTripod::at(&f, [0; 3]),
                 cur: f.voxel_world([0; 3]),
                 steps: steps4(&f),
                 remaining: 0,
+                left: [0; 3],
             },
         }
     }
@@ -209,6 +248,7 @@ impl Iterator for Tripod6 {
         if self.remaining > 0 {
             let k = self.state.step();
             self.cur += self.steps[k];
+            self.left[k] -= 1;
         }
         Some(v)
     }
@@ -218,7 +258,9 @@ impl Iterator for Tripod6 {
         (n, usize::try_from(self.remaining).ok())
     }
 
-    /// Internal iteration: one tight loop, the `i64`/`i128` choice made once.
+    /// Internal iteration: one tight loop, the `i64`/`i128` choice made
+    /// once; with AVX2, the columns of a narrow line run eight at a time
+    /// ([`super::lanes::tripod_voxels`]; the voxels are the same).
     #[inline]
     fn fold<B, G: FnMut(B, IVec3) -> B>(self, init: B, mut g: G) -> B {
         let mut acc = init;
@@ -228,9 +270,41 @@ impl Iterator for Tripod6 {
         let mut cur = self.cur;
         acc = g(acc, cur);
         let steps = self.steps;
-        let n = self.remaining - 1;
+        let mut n = self.remaining - 1;
         match self.state {
             AnyTripod::Narrow(mut s) => {
+                #[cfg(target_arch = "x86_64")]
+                {
+                    let mut left = self.left;
+                    // To the exit voxel of the current column (the next
+                    // step along m), at most two steps.
+                    while n > 0 && !s.next_is_major() {
+                        let k = s.step_tree();
+                        cur += steps[k];
+                        left[k] -= 1;
+                        n -= 1;
+                        acc = g(acc, cur);
+                    }
+                    if let Some(l) = TripodRun::new(&s, left, n) {
+                        // SAFETY: `TripodRun::new` checked AVX2.
+                        let (a, last) = unsafe {
+                            super::lanes::tripod_voxels(
+                                l.r,
+                                l.e,
+                                l.d,
+                                cur,
+                                [steps[0], steps[1], steps[2]],
+                                l.columns,
+                                acc,
+                                &mut g,
+                            )
+                        };
+                        acc = a;
+                        let moved = [steps[1], steps[2]].map(|w| (last - cur).dot(w) as i64);
+                        n -= l.advance(&mut s, moved);
+                        cur = last;
+                    }
+                }
                 for _ in 0..n {
                     cur += steps[s.step_tree()];
                     acc = g(acc, cur);
@@ -244,6 +318,134 @@ impl Iterator for Tripod6 {
             }
         }
         acc
+    }
+}
+
+impl Tripod6 {
+    /// The line of a narrow segment, or `None` if it is wide.
+    #[inline]
+    pub(crate) fn narrow(seg: &Segment) -> Option<(Self, LeanFrame)> {
+        let f = LeanFrame::new(seg)?;
+        Some((Self::from_lean(&f), f))
+    }
+
+    /// Visits the linear indices of a fresh narrow line lying wholly in a
+    /// grid: `idx` is the start voxel's index, `stride` the index steps of
+    /// world x, y, z, `small`: the grid has fewer than 2^31 cells. Returns
+    /// the number visited, or `Err(index)` where the visitor stopped.
+    #[inline]
+    pub(crate) fn walk<F: FnMut(usize) -> ControlFlow<()>>(
+        &self,
+        idx: usize,
+        stride: [isize; 3],
+        small: bool,
+        visit: &mut F,
+    ) -> Result<u64, usize> {
+        let AnyTripod::Narrow(mut s) = self.state else {
+            unreachable!("Tripod6::walk runs narrow lines only")
+        };
+        let off: [isize; 4] =
+            std::array::from_fn(|k| (0..3).map(|w| self.steps[k][w] as isize * stride[w]).sum());
+        let mut idx = idx;
+        if visit(idx).is_break() {
+            return Err(idx);
+        }
+        let mut n = self.remaining - 1;
+        #[cfg(target_arch = "x86_64")]
+        if small {
+            let mut left = self.left;
+            while n > 0 && !s.next_is_major() {
+                let k = s.step();
+                idx = idx.wrapping_add_signed(off[k]);
+                left[k] -= 1;
+                n -= 1;
+                if visit(idx).is_break() {
+                    return Err(idx);
+                }
+            }
+            if let Some(l) = TripodRun::new(&s, left, n) {
+                // SAFETY: `TripodRun::new` checked AVX2; every index is an
+                // in-grid cell of a grid of fewer than 2^31 cells.
+                let (last, moved) = unsafe {
+                    super::lanes::tripod_indices(
+                        l.r,
+                        l.e,
+                        l.d,
+                        idx,
+                        [off[0], off[1], off[2]],
+                        l.columns,
+                        visit,
+                    )?
+                };
+                n -= l.advance(&mut s, moved);
+                idx = last;
+            }
+        }
+        let _ = small;
+        for _ in 0..n {
+            idx = idx.wrapping_add_signed(off[s.step()]);
+            if visit(idx).is_break() {
+                return Err(idx);
+            }
+        }
+        Ok(self.remaining)
+    }
+}
+
+/// The columns a narrow tripod line runs in AVX2 lanes from an exit voxel
+/// (the next step along m): all but the last column (whose exit is the end
+/// point, not a face), if the lanes apply.
+#[cfg(target_arch = "x86_64")]
+pub(crate) struct TripodRun {
+    /// Exit remainders, floored `e_vu / S`, direction components (compact).
+    pub r: [i32; 2],
+    pub e: i32,
+    pub d: [i32; 3],
+    pub columns: u64,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl TripodRun {
+    /// Columns of fewer than this run scalar.
+    const MIN_COLUMNS: u64 = 8;
+
+    /// At an exit voxel with state `s`, `left` steps per axis and `n`
+    /// steps to go (equal unless clipped short): the lanes' start, if AVX2
+    /// is available and the span is under 256 voxels.
+    #[inline]
+    pub(crate) fn new(s: &TripodState<i64>, left: [u64; 3], n: u64) -> Option<Self> {
+        use crate::fixed::FRAC_BITS;
+        let columns = left[0].checked_sub(1)?;
+        let dm = s.dm >> FRAC_BITS;
+        if columns < Self::MIN_COLUMNS
+            || n != left.iter().sum::<u64>()
+            || dm >= super::lanes::LANES_MAX_DM
+            || !super::lanes::avx2::available()
+        {
+            return None;
+        }
+        debug_assert!(s.next_is_major(), "tripod lanes start off an exit voxel");
+        // At an exit voxel e_mu, e_mv ∈ [−D_m·S, 0): R = floor(e / S) + D_m.
+        let r = [s.e[0], s.e[1]].map(|e| ((e >> FRAC_BITS) + dm) as i32);
+        debug_assert!(r.iter().all(|&x| (0..dm as i32).contains(&x)));
+        Some(TripodRun {
+            r,
+            e: (s.e[2] >> FRAC_BITS) as i32,
+            d: [dm, s.du >> FRAC_BITS, s.dv >> FRAC_BITS].map(|x| x as i32),
+            columns,
+        })
+    }
+
+    /// Moves `s` over the run's columns, which took `moved = [Δu, Δv]`
+    /// minor steps; returns the number of steps taken.
+    #[inline]
+    pub(crate) fn advance(&self, s: &mut TripodState<i64>, moved: [i64; 2]) -> u64 {
+        let k = self.columns as i64;
+        let [du_steps, dv_steps] = moved;
+        s.e[0] += k * s.du - du_steps * s.dm;
+        s.e[1] += k * s.dv - dv_steps * s.dm;
+        s.e[2] += dv_steps * s.du - du_steps * s.dv;
+        (k + du_steps + dv_steps) as u64
     }
 }
 

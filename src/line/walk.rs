@@ -15,7 +15,7 @@ use super::clip::{GridBox, tripod_range};
 use super::line18::Cursor18;
 use super::line26::{AnyMid, Compact26, Cursor26, Mid26State, Plan26};
 use super::segment::{DecisionInt, Frame, Segment};
-use super::tripod6::{AnyTripod, TripodState};
+use super::tripod6::{AnyTripod, Tripod6, TripodState};
 
 /// Where a walk ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -360,6 +360,12 @@ impl GridShape {
     }
 }
 
+/// Whether `v` lies in the box `0..dims`.
+#[inline]
+pub(crate) fn in_box(v: Voxel, dims: crate::grid::Dims) -> bool {
+    (0..3).all(|k| v[k] >= 0 && (v[k] as u64) < dims[k] as u64)
+}
+
 fn dispatch<F: FnMut(usize) -> ControlFlow<()>>(
     shape: GridShape,
     seg: &Segment,
@@ -367,17 +373,29 @@ fn dispatch<F: FnMut(usize) -> ControlFlow<()>>(
     visit: &mut F,
 ) -> Result<u64, usize> {
     let dims = shape.dims;
-    if conn == Connectivity::TwentySix
-        && let Some(c) = Compact26::new(seg)
-        && c.inside(dims)
-    {
-        // The common case: a narrow line wholly in the grid, no clipping.
-        let small = dims
-            .iter()
-            .try_fold(1usize, |a, &d| a.checked_mul(d))
-            .is_some_and(|c| c < 1 << 31);
-        let stride = [1, dims[0] as isize, (dims[0] * dims[1]) as isize];
-        return c.walk(shape.index(c.start()), stride, small, visit);
+    // The common case: a narrow line wholly in the grid, no clipping.
+    let small = dims
+        .iter()
+        .try_fold(1usize, |a, &d| a.checked_mul(d))
+        .is_some_and(|c| c < 1 << 31);
+    let stride = [1, dims[0] as isize, (dims[0] * dims[1]) as isize];
+    match conn {
+        Connectivity::TwentySix => {
+            if let Some(c) = Compact26::new(seg)
+                && c.inside(dims)
+            {
+                return c.walk(shape.index(c.start()), stride, small, visit);
+            }
+        }
+        Connectivity::Six => {
+            if let Some((t, f)) = Tripod6::narrow(seg)
+                && in_box(f.start, dims)
+                && in_box(f.end_voxel, dims)
+            {
+                return t.walk(shape.index(f.start), stride, small, visit);
+            }
+        }
+        Connectivity::Eighteen => {}
     }
     let f = Frame::new(seg);
     let off = Offsets::new(&shape.table, &f);
