@@ -212,12 +212,7 @@ pub(crate) mod avx2 {
         /// The CPU must support AVX2 ([`available`]).
         #[target_feature(enable = "avx2")]
         pub(crate) unsafe fn new(cols: &MidColumns, cur: IVec3, steps: [IVec3; 3]) -> Self {
-            let ma = steps[0]
-                .abs()
-                .to_array()
-                .iter()
-                .position(|&c| c != 0)
-                .unwrap_or(0);
+            let ma = usize::from(steps[0].y != 0) + 2 * usize::from(steps[0].z != 0);
             let (ua, va) = match ma {
                 0 => (1, 2),
                 1 => (0, 2),
@@ -387,6 +382,8 @@ pub(crate) mod avx2 {
         e_jump: __m256i,
         du: __m256i,
         dv: __m256i,
+        /// Per-lane counts of u and v steps in the columns filled so far.
+        moved: [__m256i; 2],
     }
 
     impl TripodLanes {
@@ -443,7 +440,22 @@ pub(crate) mod avx2 {
                 e_jump,
                 du: vdu,
                 dv: vdv,
+                moved: [_mm256_setzero_si256(); 2],
             }
+        }
+
+        /// The u and v steps of all columns filled so far.
+        ///
+        /// # Safety
+        /// The CPU must support AVX2 ([`available`]).
+        #[target_feature(enable = "avx2")]
+        pub(crate) unsafe fn moved(&self) -> [i64; 2] {
+            self.moved.map(|m| {
+                let mut a = [0i32; 8];
+                // SAFETY: an unaligned store of eight i32.
+                unsafe { _mm256_storeu_si256(a.as_mut_ptr().cast(), m) };
+                a.iter().map(|&x| i64::from(x)).sum()
+            })
         }
 
         /// Writes the codes of the next `n ≤ CHUNK` columns into `buf` and
@@ -459,11 +471,16 @@ pub(crate) mod avx2 {
                 _mm256_set1_epi32(2),
                 _mm256_set1_epi32(4),
             );
+            let iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
             let mut b = 0;
             while b < n {
                 let [ru, rv] = self.lanes.r;
                 let su = _mm256_cmpgt_epi32(ru, self.step_at[0]);
                 let sv = _mm256_cmpgt_epi32(rv, self.step_at[1]);
+                // Count only the lanes of columns below n.
+                let valid = _mm256_cmpgt_epi32(_mm256_set1_epi32((n - b) as i32), iota);
+                self.moved[0] = _mm256_sub_epi32(self.moved[0], _mm256_and_si256(su, valid));
+                self.moved[1] = _mm256_sub_epi32(self.moved[1], _mm256_and_si256(sv, valid));
                 let vfirst = _mm256_cmpgt_epi32(_mm256_setzero_si256(), self.e);
                 let code = _mm256_or_si256(
                     _mm256_or_si256(_mm256_and_si256(su, one), _mm256_and_si256(sv, two)),
@@ -683,7 +700,6 @@ pub(crate) unsafe fn tripod_indices<F: FnMut(usize) -> std::ops::ControlFlow<()>
     let mut codes = avx2::buffer();
     let mut out = [MaybeUninit::<usize>::uninit(); 3 * TRIPOD_FILL + 2];
     let mut exit = x;
-    let mut moved = [0i64; 2];
     let mut left = k;
     while left > 0 {
         let take = left.min(TRIPOD_FILL as u64) as usize;
@@ -692,8 +708,6 @@ pub(crate) unsafe fn tripod_indices<F: FnMut(usize) -> std::ops::ControlFlow<()>
         let mut p = 0usize;
         for &c in cs {
             let c = (c & 7) as usize;
-            moved[0] += (c & 1) as i64;
-            moved[1] += (c >> 1 & 1) as i64;
             let entry = exit.wrapping_add_signed(om);
             exit = entry.wrapping_add_signed(delta[c & 3]);
             let n = TRIPOD_COUNT[c];
@@ -715,5 +729,6 @@ pub(crate) unsafe fn tripod_indices<F: FnMut(usize) -> std::ops::ControlFlow<()>
         }
         left -= take as u64;
     }
-    Ok((exit, moved))
+    // SAFETY: the caller guarantees AVX2.
+    Ok((exit, unsafe { lanes.moved() }))
 }

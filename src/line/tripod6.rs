@@ -322,11 +322,12 @@ impl Iterator for Tripod6 {
 }
 
 impl Tripod6 {
-    /// The line of a narrow segment, or `None` if it is wide.
+    /// The line of a narrow segment and its end voxels, or `None` if it is
+    /// wide.
     #[inline]
-    pub(crate) fn narrow(seg: &Segment) -> Option<(Self, LeanFrame)> {
+    pub(crate) fn narrow(seg: &Segment) -> Option<(Self, [IVec3; 2])> {
         let f = LeanFrame::new(seg)?;
-        Some((Self::from_lean(&f), f))
+        Some((Self::from_lean(&f), [f.start, f.end_voxel]))
     }
 
     /// Visits the linear indices of a fresh narrow line lying wholly in a

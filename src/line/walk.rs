@@ -388,11 +388,11 @@ fn dispatch<F: FnMut(usize) -> ControlFlow<()>>(
             }
         }
         Connectivity::Six => {
-            if let Some((t, f)) = Tripod6::narrow(seg)
-                && in_box(f.start, dims)
-                && in_box(f.end_voxel, dims)
+            if let Some((t, [v0, v1])) = Tripod6::narrow(seg)
+                && in_box(v0, dims)
+                && in_box(v1, dims)
             {
-                return t.walk(shape.index(f.start), stride, small, visit);
+                return t.walk(shape.index(v0), stride, small, visit);
             }
         }
         Connectivity::Eighteen => {}
