@@ -1,4 +1,4 @@
-//! Eight columns at a time: AVX2 lanes for the middle of the 26-line.
+//! Eight columns at a time: AVX2 lanes for the 26-line and the tripod.
 //!
 //! In the middle of a 26-line (see [`super::line26`]) the voxel of column
 //! `c` is the column centre, and its minor coordinate along local axis `k` is
@@ -19,11 +19,22 @@
 //! (lines shorter than 256 voxels along their major axis; the bound is
 //! [`LANES_MAX_DM`]): every intermediate is below `8·D_m < 2^31`.
 //!
-//! The iterator's `fold` writes the lanes' world coordinates into a small
-//! buffer and hands the voxels to the caller's closure from there; the grid
-//! walk writes linear indices and visits them. Both produce exactly the voxels
-//! of the scalar stepping (tests in `tests/integration/lines.rs` compare them
-//! on random and adversarial segments).
+//! The tripod is the same sequence half a column later: its exit voxel of
+//! column `c` along `k` is `floor((D_k·c + G_k) / D_m)` (the exit face instead
+//! of the centre), so a column holds a u step iff the previous column's
+//! remainder is at least `D_m − D_u`, and `e_vu / S` (floored, same sign as
+//! `e_vu`) orders two steps; see [`tripod_voxels`].
+//!
+//! The lanes fill small buffers (world coordinates, linear indices, tripod
+//! column codes) and the caller's loop hands the voxels on from there, so the
+//! caller's closure inlines into a plain loop (a fill zeroes nothing: zeroing
+//! the buffers per line cost more than a short line's stepping). The voxels
+//! are exactly those of the scalar stepping: `tests/integration/lines.rs`
+//! compares `fold` with `next` and walks with iterators on random and
+//! adversarial segments, on both sides of the 256-voxel bound.
+//!
+//! AVX2 is detected at run time (std caches the answer); without it, and off
+//! x86-64, the scalar stepping runs.
 
 /// Largest fixed-point major direction component (exclusive) for which the
 /// lanes run in `i32`: `2^28`, i.e. 256 voxels with 20 fraction bits.

@@ -22,11 +22,14 @@
 //!
 //! Cost: O(1) set-up, then O(1) per voxel: two or three sign tests and a few
 //! additions per step (branch-free sign masks in the grid walks). On narrow
-//! frames (no axis longer than 2^20 voxels) the set-up is `i64` and division-free: start states from
-//! wrapping products that are exact because the result is bounded (see
-//! [`segment`]), the 26-line's first and last column centres by three
-//! comparisons, its end paths compressed while stepping. Longer segments use
-//! the general `i128` formulas; tests pin both against each other.
+//! frames (no axis longer than 2^20 voxels) the set-up is `i64`,
+//! straight-line and division-free (`LeanFrame`): start states from products
+//! that are exact because the result is bounded (see [`segment`]), the
+//! 26-line's first and last column centres by three comparisons. Longer
+//! segments use the general `i128` formulas; tests pin both against each
+//! other. With AVX2 (detected at run time) the iterators' `fold` and the
+//! walks run the columns of lines shorter than 256 voxels eight at a time
+//! (`lanes`); a line wholly inside the grid is walked without clipping.
 
 pub mod adaptive;
 pub mod amanatides_woo;
