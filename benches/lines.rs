@@ -2,7 +2,8 @@
 //! random 64-voxel float segments (SplitMix64 generator of the peer harness
 //! /work/shared/peers/rust-lines), in three settings: generation only, writes
 //! into a cache-resident 64³ u8 grid, writes into a 512³ u8 grid (plus a
-//! store-only baseline writing a precomputed index list of the same voxels).
+//! store-only baseline writing a precomputed index list of the same voxels);
+//! and generation against line length (16, 64, 200 voxels).
 
 use std::hint::black_box;
 use std::ops::ControlFlow;
@@ -323,9 +324,74 @@ fn bench_size(c: &mut Criterion, g: usize, name: &str) {
     grp.finish();
 }
 
+/// Generation against line length: the fixed cost per line (set-up) and the
+/// cost per voxel, for the 26-line against `Bresenham3d` and the tripod
+/// against `WalkVoxels` (the same random segments, 2,000 per length).
+fn by_length(c: &mut Criterion) {
+    let mut grp = c.benchmark_group("length");
+    for len in [16usize, 64, 200] {
+        let g = (len * 3 / 2).max(32) as f64;
+        let raw = segments(2000, len as f64, g, 43);
+        let segs = ours(&raw);
+        let ints = floored(&raw);
+        let total26: u64 = segs.iter().map(|s| Line26::new(s).len() as u64).sum();
+        let totalb: u64 = ints
+            .iter()
+            .map(|&(a, b)| Bresenham3d::new(a, b).count() as u64)
+            .sum();
+        let total6: u64 = segs.iter().map(|s| Tripod6::new(s).len() as u64).sum();
+        let walk = |a: &[f64; 3], b: &[f64; 3]| {
+            WalkVoxels::<f64, i32>::new(
+                (a[0], a[1], a[2]),
+                (b[0], b[1], b[2]),
+                &VoxelOrigin::Corner,
+            )
+        };
+        let totalw: u64 = raw.iter().map(|(a, b)| walk(a, b).count() as u64).sum();
+        grp.throughput(Throughput::Elements(total26));
+        grp.bench_function(format!("line26/{len}"), |bn| {
+            bn.iter(|| {
+                black_box(&segs)
+                    .iter()
+                    .map(|s| Line26::new(s).fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z))
+                    .fold(0, |a, b| a ^ b)
+            })
+        });
+        grp.throughput(Throughput::Elements(totalb));
+        grp.bench_function(format!("bresenham3d/{len}"), |bn| {
+            bn.iter(|| {
+                black_box(&ints)
+                    .iter()
+                    .map(|&(a, b)| Bresenham3d::new(a, b).fold(0, |acc, v| acc ^ v.0 ^ v.1 ^ v.2))
+                    .fold(0, |a, b| a ^ b)
+            })
+        });
+        grp.throughput(Throughput::Elements(total6));
+        grp.bench_function(format!("tripod6/{len}"), |bn| {
+            bn.iter(|| {
+                black_box(&segs)
+                    .iter()
+                    .map(|s| Tripod6::new(s).fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z))
+                    .fold(0, |a, b| a ^ b)
+            })
+        });
+        grp.throughput(Throughput::Elements(totalw));
+        grp.bench_function(format!("walkvoxels_f64/{len}"), |bn| {
+            bn.iter(|| {
+                black_box(&raw)
+                    .iter()
+                    .map(|(a, b)| walk(a, b).fold(0, |acc, v| acc ^ v.0 ^ v.1 ^ v.2))
+                    .fold(0, |a, b| a ^ b)
+            })
+        });
+    }
+    grp.finish();
+}
+
 fn lines(c: &mut Criterion) {
     bench_size(c, 64, "grid64");
     bench_size(c, 512, "grid512");
+    by_length(c);
 }
 
 criterion_group!(benches, lines);

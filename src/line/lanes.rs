@@ -648,32 +648,37 @@ pub(crate) unsafe fn tripod_voxels<B, G: FnMut(B, glam::IVec3) -> B>(
     // SAFETY (both calls): the caller guarantees AVX2.
     let mut lanes = unsafe { avx2::TripodLanes::new(r, e, d) };
     let mut codes = avx2::buffer();
-    let mut out = [MaybeUninit::<[i32; 4]>::uninit(); 3 * TRIPOD_FILL + 2];
+    // Voxels as packed `IVec3`s (12 bytes): each is written by a 16-byte
+    // store whose fourth word spills into the next entry, which a later
+    // store of this column or the next overwrites (one entry of pad).
+    let mut out = [MaybeUninit::<glam::IVec3>::uninit(); 3 * TRIPOD_FILL + 3];
     let mut exit = v4(x);
     let mut left = k;
     while left > 0 {
         let take = left.min(TRIPOD_FILL as u64) as usize;
         let cs = unsafe { lanes.fill(&mut codes, take) };
-        let base = out.as_mut_ptr().cast::<__m128i>();
+        let base = out.as_mut_ptr().cast::<glam::IVec3>();
         let mut p = 0usize;
         for &c in cs {
             let c = (c & 7) as usize;
             let entry = add(exit, step_m);
             exit = add(entry, delta[c & 3]);
             let n = TRIPOD_COUNT[c];
-            // SAFETY: p + 2 < 3·TRIPOD_FILL + 2 (at most three voxels per
-            // column); unaligned stores of four i32.
+            // SAFETY: p + 3 ≤ 3·TRIPOD_FILL + 2 (at most three voxels per
+            // column, and the fourth word of a store lands in entry p + 3 at
+            // most); unaligned stores of four i32 in order.
             unsafe {
-                _mm_storeu_si128(base.add(p), entry);
-                _mm_storeu_si128(base.add(p + 1), add(entry, first[c]));
-                _mm_storeu_si128(base.add(p + n - 1), exit);
+                _mm_storeu_si128(base.add(p).cast(), entry);
+                _mm_storeu_si128(base.add(p + 1).cast(), add(entry, first[c]));
+                _mm_storeu_si128(base.add(p + n - 1).cast(), exit);
             }
             p += n;
         }
-        // SAFETY: the loop wrote entries 0..p.
-        let vs = unsafe { std::slice::from_raw_parts(out.as_ptr().cast::<[i32; 4]>(), p) };
-        for w in vs {
-            acc = g(acc, glam::IVec3::new(w[0], w[1], w[2]));
+        // SAFETY: the loop wrote entries 0..p in full (each entry's last
+        // store is its own).
+        let vs = unsafe { std::slice::from_raw_parts(out.as_ptr().cast::<glam::IVec3>(), p) };
+        for &v in vs {
+            acc = g(acc, v);
         }
         left -= take as u64;
     }
