@@ -21,8 +21,8 @@ use glam::IVec3;
 
 use crate::fixed::HALF;
 
-use super::line26::{Mid26State, Plan26};
-use super::segment::{DecisionInt, Frame, Segment};
+use super::line26::{Compact26, Mid26State, Plan26};
+use super::segment::{DecisionInt, Frame, LeanFrame, Segment};
 
 /// Local axis crossed last when leaving a voxel with biased tripod variables
 /// `e = [e_mu, e_mv, e_vu]`.
@@ -103,6 +103,110 @@ impl<T: DecisionInt> Mid18<T> {
         let split = if mask == 7 { 7 ^ (1 << last_of(e)) } else { 0 };
         (mask, split)
     }
+}
+
+impl Mid18<i64> {
+    /// The state at a column-centre voxel from the midpoint state and the
+    /// tripod variable `e_vu` there.
+    #[inline]
+    fn from_parts(s: Mid26State<i64>, evu: i64) -> Self {
+        // D·S/2 exactly: S is even.
+        Mid18 {
+            s,
+            evu,
+            hu: s.du / 2,
+            hv: s.dv / 2,
+        }
+    }
+}
+
+/// Walks a narrow 18-line lying wholly in a grid without the general frame:
+/// the compact 26-line's moves with each corner move split (see the module
+/// docs), its visits as linear indices. `idx` is the start voxel's index,
+/// `stride` the index steps of world x, y, z. Returns the number visited, or
+/// `Err(index)` where the visitor stopped; `None` if the line is wide, has
+/// longer end paths or leaves the grid.
+pub(crate) fn walk_inside<F: FnMut(usize) -> ControlFlow<()>>(
+    seg: &Segment,
+    dims: crate::grid::Dims,
+    index: impl Fn(IVec3) -> usize,
+    visit: &mut F,
+) -> Option<Result<u64, usize>> {
+    let f = LeanFrame::new(seg)?;
+    let c = Compact26::from_lean(&f)?;
+    if !c.inside(dims) {
+        return None;
+    }
+    let stride = [1isize, dims[0] as isize, (dims[0] * dims[1]) as isize];
+    let axis = c
+        .steps()
+        .map(|s| (0..3).map(|w| s[w] as isize * stride[w]).sum::<isize>());
+    let off: [isize; 8] =
+        std::array::from_fn(|m| (0..3).filter(|k| m >> k & 1 == 1).map(|k| axis[k]).sum());
+    // The tripod variables at the start voxel, as Tripod6 sets them up.
+    let [dm, du, dv] = f.d;
+    let [rm, ru, rv] = f.a.map(|a| HALF - a);
+    let e0 = [
+        du * rm - dm * ru - f.bias(0, 1),
+        dv * rm - dm * rv - f.bias(0, 2),
+        du * rv - dv * ru - f.bias(2, 1),
+    ];
+    Some(run_inside(&c, e0, index(c.start()), &off, visit))
+}
+
+#[inline]
+fn run_inside<F: FnMut(usize) -> ControlFlow<()>>(
+    c: &Compact26,
+    e0: [i64; 3],
+    mut idx: usize,
+    off: &[isize; 8],
+    visit: &mut F,
+) -> Result<u64, usize> {
+    let mut visited = 0u64;
+    let mut one = |i: usize, visited: &mut u64| -> Result<(), usize> {
+        *visited += 1;
+        if visit(i).is_break() { Err(i) } else { Ok(()) }
+    };
+    one(idx, &mut visited)?;
+    let last = c.last();
+    if last == 0 {
+        return Ok(visited);
+    }
+    let (pre, post) = c.end_moves();
+    let mid = c.mid();
+    if pre == 7 {
+        one(
+            idx.wrapping_add_signed(off[7 ^ (1 << last_of(e0))]),
+            &mut visited,
+        )?;
+    }
+    idx = idx.wrapping_add_signed(off[usize::from(pre)]);
+    one(idx, &mut visited)?;
+    if last == 1 {
+        return Ok(visited);
+    }
+    // e_vu at column 1: −D_v·S per u step and +D_u·S per v step of the
+    // first move (m steps leave it).
+    let evu1 = e0[2] - i64::from(pre >> 1 & 1) * mid.dv + i64::from(pre >> 2 & 1) * mid.du;
+    let mut s = Mid18::from_parts(mid, evu1);
+    for _ in 0..last - 2 {
+        let (mask, split) = s.step();
+        if split != 0 {
+            one(idx.wrapping_add_signed(off[split]), &mut visited)?;
+        }
+        idx = idx.wrapping_add_signed(off[mask]);
+        one(idx, &mut visited)?;
+    }
+    if post == 7 {
+        let e = [s.s.eu - s.hu, s.s.ev - s.hv, s.evu];
+        one(
+            idx.wrapping_add_signed(off[7 ^ (1 << last_of(e))]),
+            &mut visited,
+        )?;
+    }
+    idx = idx.wrapping_add_signed(off[usize::from(post)]);
+    one(idx, &mut visited)?;
+    Ok(visited)
 }
 
 #[derive(Clone, Copy, Debug)]

@@ -631,8 +631,13 @@ impl Compact26 {
     /// iterator is needed.
     #[inline]
     pub(crate) fn new(seg: &Segment) -> Option<Self> {
+        Self::from_lean(&LeanFrame::new(seg)?)
+    }
+
+    /// [`Compact26::new`] from a lean frame.
+    #[inline(always)]
+    pub(crate) fn from_lean(f: &LeanFrame) -> Option<Self> {
         use crate::fixed::{HALF, ONE};
-        let f = LeanFrame::new(seg)?;
         let [dm, du, dv] = f.d;
         let [am, au, av] = f.a;
         let [mm, eu, ev] = f.end;
@@ -701,6 +706,30 @@ impl Compact26 {
     #[inline]
     pub(crate) fn start(&self) -> IVec3 {
         self.cur
+    }
+
+    /// The position of the end voxel `V1` (the number of moves).
+    #[inline]
+    pub(crate) fn last(&self) -> u64 {
+        self.last
+    }
+
+    /// The move masks `V0 → C1` and `C(M−1) → V1`.
+    #[inline]
+    pub(crate) fn end_moves(&self) -> (u8, u8) {
+        (self.pre, self.post)
+    }
+
+    /// The midpoint state at column 1.
+    #[inline]
+    pub(crate) fn mid(&self) -> Mid26State<i64> {
+        self.mid
+    }
+
+    /// World unit steps of local m, u, v.
+    #[inline]
+    pub(crate) fn steps(&self) -> [IVec3; 3] {
+        self.steps
     }
 
     /// Whether the whole line lies in the box `0..dims` (it is monotone

@@ -395,7 +395,11 @@ fn dispatch<F: FnMut(usize) -> ControlFlow<()>>(
                 return t.walk(shape.index(v0), stride, small, visit);
             }
         }
-        Connectivity::Eighteen => {}
+        Connectivity::Eighteen => {
+            if let Some(r) = super::line18::walk_inside(seg, dims, |v| shape.index(v), visit) {
+                return r;
+            }
+        }
     }
     let f = Frame::new(seg);
     let off = Offsets::new(&shape.table, &f);
