@@ -72,6 +72,42 @@ fn floored(s: &[([f64; 3], [f64; 3])]) -> Vec<IPair> {
     s.iter().map(|(a, b)| (f(*a), f(*b))).collect()
 }
 
+/// The generation measure: every voxel of every line handed to a consumer
+/// that XORs its coordinates.
+#[inline(always)]
+fn xor26(segs: &[Segment]) -> i32 {
+    segs.iter()
+        .map(|s| Line26::new(s).fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z))
+        .fold(0, |a, b| a ^ b)
+}
+
+#[inline(always)]
+fn xor6(segs: &[Segment]) -> i32 {
+    segs.iter()
+        .map(|s| Tripod6::new(s).fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z))
+        .fold(0, |a, b| a ^ b)
+}
+
+#[inline(always)]
+fn xor_bresenham(ints: &[IPair]) -> i32 {
+    ints.iter()
+        .map(|&(a, b)| Bresenham3d::new(a, b).fold(0, |acc, v| acc ^ v.0 ^ v.1 ^ v.2))
+        .fold(0, |a, b| a ^ b)
+}
+
+/// The peer's corner-origin voxel walk of a raw segment.
+#[inline(always)]
+fn walk_voxels(a: &[f64; 3], b: &[f64; 3]) -> WalkVoxels<f64, i32> {
+    WalkVoxels::<f64, i32>::new((a[0], a[1], a[2]), (b[0], b[1], b[2]), &VoxelOrigin::Corner)
+}
+
+#[inline(always)]
+fn xor_walk_voxels(raw: &[([f64; 3], [f64; 3])]) -> i32 {
+    raw.iter()
+        .map(|(a, b)| walk_voxels(a, b).fold(0, |acc, v| acc ^ v.0 ^ v.1 ^ v.2))
+        .fold(0, |a, b| a ^ b)
+}
+
 fn bench_size(c: &mut Criterion, g: usize, name: &str) {
     // 64³: 2000 segments (cache-resident grid). 512³: 20000 segments spread
     // over 128 MiB, so writes miss the caches as a real traversal would.
@@ -96,27 +132,13 @@ fn bench_size(c: &mut Criterion, g: usize, name: &str) {
         .sum();
     let totalw: u64 = raw
         .iter()
-        .map(|(a, b)| {
-            WalkVoxels::<f64, i32>::new(
-                (a[0], a[1], a[2]),
-                (b[0], b[1], b[2]),
-                &VoxelOrigin::Corner,
-            )
-            .count() as u64
-        })
+        .map(|(a, b)| walk_voxels(a, b).count() as u64)
         .sum();
 
     if g == 64 {
         let mut grp = c.benchmark_group("generate");
         grp.throughput(Throughput::Elements(total26));
-        grp.bench_function("line26", |bn| {
-            bn.iter(|| {
-                black_box(&segs)
-                    .iter()
-                    .map(|s| Line26::new(s).fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z))
-                    .fold(0, |a, b| a ^ b)
-            })
-        });
+        grp.bench_function("line26", |bn| bn.iter(|| xor26(black_box(&segs))));
         // Set-up alone (construct, read the length): the fixed cost per line.
         grp.throughput(Throughput::Elements(segs.len() as u64));
         grp.bench_function("line26_setup_per_line", |bn| {
@@ -129,31 +151,14 @@ fn bench_size(c: &mut Criterion, g: usize, name: &str) {
         });
         grp.throughput(Throughput::Elements(total26i));
         grp.bench_function("line26_integer_endpoints", |bn| {
-            bn.iter(|| {
-                black_box(&int_segs)
-                    .iter()
-                    .map(|s| Line26::new(s).fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z))
-                    .fold(0, |a, b| a ^ b)
-            })
+            bn.iter(|| xor26(black_box(&int_segs)))
         });
         grp.throughput(Throughput::Elements(totalb));
         grp.bench_function("bresenham3d", |bn| {
-            bn.iter(|| {
-                black_box(&ints)
-                    .iter()
-                    .map(|&(a, b)| Bresenham3d::new(a, b).fold(0, |acc, v| acc ^ v.0 ^ v.1 ^ v.2))
-                    .fold(0, |a, b| a ^ b)
-            })
+            bn.iter(|| xor_bresenham(black_box(&ints)))
         });
         grp.throughput(Throughput::Elements(total6));
-        grp.bench_function("tripod6", |bn| {
-            bn.iter(|| {
-                black_box(&segs)
-                    .iter()
-                    .map(|s| Tripod6::new(s).fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z))
-                    .fold(0, |a, b| a ^ b)
-            })
-        });
+        grp.bench_function("tripod6", |bn| bn.iter(|| xor6(black_box(&segs))));
         grp.throughput(Throughput::Elements(total18));
         grp.bench_function("line18", |bn| {
             bn.iter(|| {
@@ -165,19 +170,7 @@ fn bench_size(c: &mut Criterion, g: usize, name: &str) {
         });
         grp.throughput(Throughput::Elements(totalw));
         grp.bench_function("walkvoxels_f64", |bn| {
-            bn.iter(|| {
-                black_box(&raw)
-                    .iter()
-                    .map(|(a, b)| {
-                        WalkVoxels::<f64, i32>::new(
-                            (a[0], a[1], a[2]),
-                            (b[0], b[1], b[2]),
-                            &VoxelOrigin::Corner,
-                        )
-                        .fold(0, |acc, v| acc ^ v.0 ^ v.1 ^ v.2)
-                    })
-                    .fold(0, |a, b| a ^ b)
-            })
+            bn.iter(|| xor_walk_voxels(black_box(&raw)))
         });
         grp.throughput(Throughput::Elements(total6));
         grp.bench_function("amanatides_woo", |bn| {
@@ -311,11 +304,7 @@ fn bench_size(c: &mut Criterion, g: usize, name: &str) {
         bn.iter(|| {
             let cells = grid.as_mut_slice();
             for (a, b) in black_box(&raw) {
-                for (x, y, z) in WalkVoxels::<f64, i32>::new(
-                    (a[0], a[1], a[2]),
-                    (b[0], b[1], b[2]),
-                    &VoxelOrigin::Corner,
-                ) {
+                for (x, y, z) in walk_voxels(a, b) {
                     cells[x as usize + g * (y as usize + g * z as usize)] = 1;
                 }
             }
@@ -340,49 +329,25 @@ fn by_length(c: &mut Criterion) {
             .map(|&(a, b)| Bresenham3d::new(a, b).count() as u64)
             .sum();
         let total6: u64 = segs.iter().map(|s| Tripod6::new(s).len() as u64).sum();
-        let walk = |a: &[f64; 3], b: &[f64; 3]| {
-            WalkVoxels::<f64, i32>::new(
-                (a[0], a[1], a[2]),
-                (b[0], b[1], b[2]),
-                &VoxelOrigin::Corner,
-            )
-        };
-        let totalw: u64 = raw.iter().map(|(a, b)| walk(a, b).count() as u64).sum();
+        let totalw: u64 = raw
+            .iter()
+            .map(|(a, b)| walk_voxels(a, b).count() as u64)
+            .sum();
         grp.throughput(Throughput::Elements(total26));
         grp.bench_function(format!("line26/{len}"), |bn| {
-            bn.iter(|| {
-                black_box(&segs)
-                    .iter()
-                    .map(|s| Line26::new(s).fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z))
-                    .fold(0, |a, b| a ^ b)
-            })
+            bn.iter(|| xor26(black_box(&segs)))
         });
         grp.throughput(Throughput::Elements(totalb));
         grp.bench_function(format!("bresenham3d/{len}"), |bn| {
-            bn.iter(|| {
-                black_box(&ints)
-                    .iter()
-                    .map(|&(a, b)| Bresenham3d::new(a, b).fold(0, |acc, v| acc ^ v.0 ^ v.1 ^ v.2))
-                    .fold(0, |a, b| a ^ b)
-            })
+            bn.iter(|| xor_bresenham(black_box(&ints)))
         });
         grp.throughput(Throughput::Elements(total6));
         grp.bench_function(format!("tripod6/{len}"), |bn| {
-            bn.iter(|| {
-                black_box(&segs)
-                    .iter()
-                    .map(|s| Tripod6::new(s).fold(0i32, |acc, v| acc ^ v.x ^ v.y ^ v.z))
-                    .fold(0, |a, b| a ^ b)
-            })
+            bn.iter(|| xor6(black_box(&segs)))
         });
         grp.throughput(Throughput::Elements(totalw));
         grp.bench_function(format!("walkvoxels_f64/{len}"), |bn| {
-            bn.iter(|| {
-                black_box(&raw)
-                    .iter()
-                    .map(|(a, b)| walk(a, b).fold(0, |acc, v| acc ^ v.0 ^ v.1 ^ v.2))
-                    .fold(0, |a, b| a ^ b)
-            })
+            bn.iter(|| xor_walk_voxels(black_box(&raw)))
         });
     }
     grp.finish();

@@ -138,20 +138,8 @@ pub(crate) fn walk_inside<F: FnMut(usize) -> ControlFlow<()>>(
         return None;
     }
     let stride = [1isize, dims[0] as isize, (dims[0] * dims[1]) as isize];
-    let axis = c
-        .steps()
-        .map(|s| (0..3).map(|w| s[w] as isize * stride[w]).sum::<isize>());
-    let off: [isize; 8] =
-        std::array::from_fn(|m| (0..3).filter(|k| m >> k & 1 == 1).map(|k| axis[k]).sum());
-    // The tripod variables at the start voxel, as Tripod6 sets them up.
-    let [dm, du, dv] = f.d;
-    let [rm, ru, rv] = f.a.map(|a| HALF - a);
-    let e0 = [
-        du * rm - dm * ru - f.bias(0, 1),
-        dv * rm - dm * rv - f.bias(0, 2),
-        du * rv - dv * ru - f.bias(2, 1),
-    ];
-    Some(run_inside(&c, e0, index(c.start()), &off, visit))
+    let off = super::walk::mask_offsets(super::walk::axis_offsets(c.steps(), stride));
+    Some(run_inside(&c, f.tripod_e(), index(c.start()), &off, visit))
 }
 
 #[inline]

@@ -753,11 +753,9 @@ impl Compact26 {
         visit: &mut F,
     ) -> Result<u64, usize> {
         debug_assert_eq!(self.pos, 0, "walk of a started line");
-        let axis = self
-            .steps
-            .map(|s| (0..3).map(|w| s[w] as isize * stride[w]).sum::<isize>());
-        let off =
-            |mask: u8| -> isize { (0..3).filter(|k| mask >> k & 1 == 1).map(|k| axis[k]).sum() };
+        let axis = super::walk::axis_offsets(self.steps, stride);
+        let mask_off = super::walk::mask_offsets(axis);
+        let off = |mask: u8| mask_off[usize::from(mask & 7)];
         let mut idx = idx;
         if visit(idx).is_break() {
             return Err(idx);
@@ -806,8 +804,7 @@ impl Compact26 {
         }
         let _ = small;
         let mut s = s;
-        let mask_off: [isize; 8] =
-            std::array::from_fn(|m| (0..3).filter(|k| m >> k & 1 == 1).map(|k| axis[k]).sum());
+        let mask_off = super::walk::mask_offsets(axis);
         for _ in 0..n {
             idx = idx.wrapping_add_signed(mask_off[s.step()]);
             if visit(idx).is_break() {

@@ -303,6 +303,19 @@ impl LeanFrame {
         })
     }
 
+    /// The biased tripod variables `[e_mu, e_mv, e_vu]` at the start voxel
+    /// (the values of [`Frame::tripod_e64`] there; `|e| ≤ S·D_m + 1`).
+    #[inline(always)]
+    pub(crate) fn tripod_e(&self) -> [i64; 3] {
+        let [dm, du, dv] = self.d;
+        let [rm, ru, rv] = self.a.map(|a| HALF - a);
+        [
+            du * rm - dm * ru - self.bias(0, 1),
+            dv * rm - dm * rv - self.bias(0, 2),
+            du * rv - dv * ru - self.bias(2, 1),
+        ]
+    }
+
     /// The tie bias (0 or 1) of the decision variable of local axes `(i, j)`.
     #[inline(always)]
     pub(crate) fn bias(&self, i: usize, j: usize) -> i64 {

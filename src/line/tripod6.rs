@@ -172,15 +172,9 @@ impl Tripod6 {
     /// the lean frame (the same values as [`TripodState::at`]).
     #[inline]
     fn from_lean(f: &LeanFrame) -> Self {
-        use crate::fixed::{HALF, ONE};
+        use crate::fixed::ONE;
         let [dm, du, dv] = f.d;
-        let [rm, ru, rv] = f.a.map(|a| HALF - a);
-        // Bound as in Frame::tripod_e64: |e| ≤ S·D_m + 1 at path voxels.
-        let e = [
-            du * rm - dm * ru - f.bias(0, 1),
-            dv * rm - dm * rv - f.bias(0, 2),
-            du * rv - dv * ru - f.bias(2, 1),
-        ];
+        let e = f.tripod_e();
         let [sm, su, sv] = f.steps;
         Tripod6 {
             state: AnyTripod::Narrow(TripodState {
@@ -345,8 +339,9 @@ impl Tripod6 {
         let AnyTripod::Narrow(mut s) = self.state else {
             unreachable!("Tripod6::walk runs narrow lines only")
         };
-        let off: [isize; 4] =
-            std::array::from_fn(|k| (0..3).map(|w| self.steps[k][w] as isize * stride[w]).sum());
+        let [om, ou, ov] =
+            super::walk::axis_offsets([self.steps[0], self.steps[1], self.steps[2]], stride);
+        let off = [om, ou, ov, 0];
         let mut idx = idx;
         if visit(idx).is_break() {
             return Err(idx);

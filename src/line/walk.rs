@@ -360,6 +360,19 @@ impl GridShape {
     }
 }
 
+/// Linear-index offsets of local axes with world unit `steps`, in a grid
+/// whose world x, y, z steps are `stride`.
+#[inline]
+pub(crate) fn axis_offsets(steps: [Voxel; 3], stride: [isize; 3]) -> [isize; 3] {
+    steps.map(|s| (0..3).map(|w| s[w] as isize * stride[w]).sum())
+}
+
+/// Linear-index offsets of the eight local move masks (bit k: axis k).
+#[inline]
+pub(crate) fn mask_offsets(axis: [isize; 3]) -> [isize; 8] {
+    std::array::from_fn(|m| (0..3).filter(|k| m >> k & 1 == 1).map(|k| axis[k]).sum())
+}
+
 /// Whether `v` lies in the box `0..dims`.
 #[inline]
 pub(crate) fn in_box(v: Voxel, dims: crate::grid::Dims) -> bool {
