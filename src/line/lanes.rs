@@ -223,13 +223,17 @@ pub(crate) mod avx2 {
         /// The CPU must support AVX2 ([`available`]).
         #[target_feature(enable = "avx2")]
         pub(crate) unsafe fn new(cols: &MidColumns, cur: IVec3, steps: [IVec3; 3]) -> Self {
+            // Table look-ups, not `match` or `IVec3` indexing: those compile
+            // to a jump on the major axis, which varies from line to line and
+            // mispredicts.
             let ma = usize::from(steps[0].y != 0) + 2 * usize::from(steps[0].z != 0);
-            let (ua, va) = match ma {
-                0 => (1, 2),
-                1 => (0, 2),
-                _ => (0, 1),
-            };
-            let (sm, su, sv) = (steps[0][ma], steps[1][ua], steps[2][va]);
+            let (ua, va) = ([1, 0, 0][ma], [2, 2, 1][ma]);
+            let cur = cur.to_array();
+            let (sm, su, sv) = (
+                steps[0].to_array()[ma],
+                steps[1].to_array()[ua],
+                steps[2].to_array()[va],
+            );
             let (lanes, [du, dv]) = Lanes::start(cols);
             let iota1 = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 8);
             let w = [
