@@ -592,9 +592,8 @@ pub(crate) unsafe fn mid_indices<F: FnMut(usize) -> std::ops::ControlFlow<()>>(
 #[cfg(target_arch = "x86_64")]
 const TRIPOD_FILL: usize = 64;
 
-/// Per column code (see [`avx2::TripodLanes`]): the voxels emitted, the step
-/// to the column's exit voxel (table index `code & 3`), the step to its
-/// middle voxel when it has two minor steps.
+/// Per column code (see [`avx2::TripodLanes`]): the voxels the column emits
+/// (its entry voxel and one per minor step).
 #[cfg(target_arch = "x86_64")]
 const TRIPOD_COUNT: [usize; 8] = [1, 2, 2, 3, 1, 2, 2, 3];
 
@@ -638,14 +637,28 @@ pub(crate) unsafe fn tripod_voxels<B, G: FnMut(B, glam::IVec3) -> B>(
         unsafe { _mm_loadu_si128(a.as_ptr().cast()) }
     };
     let [m, u, v] = steps;
-    let delta = [glam::IVec3::ZERO, u, v, u + v].map(v4);
-    let first: [__m128i; 8] = std::array::from_fn(|c| match c {
-        1 | 5 => v4(u),
-        2 | 6 => v4(v),
-        3 => v4(u),
-        7 => v4(v),
-        _ => v4(glam::IVec3::ZERO),
+    // Per code: the steps from the column's entry voxel to its middle
+    // voxel (when it has two minor steps) and to its exit voxel, in one
+    // entry so that one index finds both.
+    let moves: [[__m128i; 2]; 8] = std::array::from_fn(|c| {
+        let first = match c {
+            1 | 3 | 5 => u,
+            2 | 6 | 7 => v,
+            _ => glam::IVec3::ZERO,
+        };
+        let exit = u * (c & 1) as i32 + v * (c >> 1 & 1) as i32;
+        [v4(first), v4(exit)]
     });
+    // Bytes each column's voxels take in the buffer.
+    const ADVANCE: [usize; 8] = {
+        let mut a = [0; 8];
+        let mut c = 0;
+        while c < 8 {
+            a[c] = TRIPOD_COUNT[c] * std::mem::size_of::<glam::IVec3>();
+            c += 1;
+        }
+        a
+    };
     let step_m = v4(m);
     // SAFETY: SSE2 is part of the x86-64 baseline.
     let add = |a: __m128i, b: __m128i| unsafe { _mm_add_epi32(a, b) };
@@ -661,26 +674,27 @@ pub(crate) unsafe fn tripod_voxels<B, G: FnMut(B, glam::IVec3) -> B>(
     while left > 0 {
         let take = left.min(TRIPOD_FILL as u64) as usize;
         let cs = unsafe { lanes.fill(&mut codes, take) };
-        let base = out.as_mut_ptr().cast::<glam::IVec3>();
+        let start = out.as_mut_ptr().cast::<u8>();
+        // Byte offset of the column's entry voxel.
         let mut p = 0usize;
         for &c in cs {
             let c = (c & 7) as usize;
+            let [first, delta] = moves[c];
             let entry = add(exit, step_m);
-            exit = add(entry, delta[c & 3]);
-            let n = TRIPOD_COUNT[c];
-            // SAFETY: p + 3 ≤ 3·TRIPOD_FILL + 2 (at most three voxels per
-            // column, and the fourth word of a store lands in entry p + 3 at
-            // most); unaligned stores of four i32 in order.
+            exit = add(entry, delta);
+            // SAFETY: before a column p ≤ 36·(TRIPOD_FILL − 1) (at most
+            // three voxels per column), and its stores end by byte p + 28 <
+            // 12·(3·TRIPOD_FILL + 3); unaligned stores of four i32 in order.
             unsafe {
-                _mm_storeu_si128(base.add(p).cast(), entry);
-                _mm_storeu_si128(base.add(p + 1).cast(), add(entry, first[c]));
-                _mm_storeu_si128(base.add(p + n - 1).cast(), exit);
+                _mm_storeu_si128(start.add(p).cast(), entry);
+                _mm_storeu_si128(start.add(p + 12).cast(), add(entry, first));
+                p += ADVANCE[c];
+                _mm_storeu_si128(start.add(p - 12).cast(), exit);
             }
-            p += n;
         }
-        // SAFETY: the loop wrote entries 0..p in full (each entry's last
-        // store is its own).
-        let vs = unsafe { std::slice::from_raw_parts(out.as_ptr().cast::<glam::IVec3>(), p) };
+        // SAFETY: the loop wrote entries 0..p / 12 in full (each entry's
+        // last store is its own).
+        let vs = unsafe { std::slice::from_raw_parts(out.as_ptr().cast::<glam::IVec3>(), p / 12) };
         for &v in vs {
             acc = g(acc, v);
         }
@@ -713,8 +727,11 @@ pub(crate) unsafe fn tripod_indices<F: FnMut(usize) -> std::ops::ControlFlow<()>
 ) -> Result<(usize, [i64; 2]), usize> {
     use std::mem::MaybeUninit;
     let [om, ou, ov] = off;
-    let delta = [0, ou, ov, ou + ov];
+    // Per code: the index steps from the column's entry voxel to its middle
+    // voxel and to its exit voxel (as in `tripod_voxels`).
     let first: [isize; 8] = [0, ou, ov, ou, 0, ou, ov, ov];
+    let moves: [[isize; 2]; 8] =
+        std::array::from_fn(|c| [first[c], ou * (c & 1) as isize + ov * (c >> 1 & 1) as isize]);
     // SAFETY (both calls): the caller guarantees AVX2.
     let mut lanes = unsafe { avx2::TripodLanes::new(r, e, d) };
     let mut codes = avx2::buffer();
@@ -728,17 +745,17 @@ pub(crate) unsafe fn tripod_indices<F: FnMut(usize) -> std::ops::ControlFlow<()>
         let mut p = 0usize;
         for &c in cs {
             let c = (c & 7) as usize;
+            let [first, delta] = moves[c];
             let entry = exit.wrapping_add_signed(om);
-            exit = entry.wrapping_add_signed(delta[c & 3]);
-            let n = TRIPOD_COUNT[c];
+            exit = entry.wrapping_add_signed(delta);
             // SAFETY: p + 2 < 3·TRIPOD_FILL + 2 (at most three voxels per
             // column).
             unsafe {
                 base.add(p).write(entry);
-                base.add(p + 1).write(entry.wrapping_add_signed(first[c]));
-                base.add(p + n - 1).write(exit);
+                base.add(p + 1).write(entry.wrapping_add_signed(first));
+                p += TRIPOD_COUNT[c];
+                base.add(p - 1).write(exit);
             }
-            p += n;
         }
         // SAFETY: the loop wrote entries 0..p.
         let ids = unsafe { std::slice::from_raw_parts(out.as_ptr().cast::<usize>(), p) };
