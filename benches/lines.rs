@@ -19,7 +19,10 @@ use voxkit::line::{
 
 #[path = "common/lines.rs"]
 mod common;
-use common::{floored, ours, segments, walk_voxels, xor_bresenham, xor_walk_voxels, xor6, xor26};
+use common::{
+    floored, mark, ours, peer_voxels, segments, walk_voxels, xor_bresenham, xor_walk_voxels, xor6,
+    xor26,
+};
 
 fn bench_size(c: &mut Criterion, g: usize, name: &str) {
     // 64³: 2000 segments (cache-resident grid). 512³: 20000 segments spread
@@ -39,14 +42,7 @@ fn bench_size(c: &mut Criterion, g: usize, name: &str) {
     let total26: u64 = segs.iter().map(|s| Line26::new(s).len() as u64).sum();
     let total6: u64 = segs.iter().map(|s| Tripod6::new(s).len() as u64).sum();
     let total18: u64 = segs.iter().map(|s| Line18::new(s).count() as u64).sum();
-    let totalb: u64 = ints
-        .iter()
-        .map(|&(a, b)| Bresenham3d::new(a, b).count() as u64)
-        .sum();
-    let totalw: u64 = raw
-        .iter()
-        .map(|(a, b)| walk_voxels(a, b).count() as u64)
-        .sum();
+    let (totalb, totalw) = peer_voxels(&ints, &raw);
 
     if g == 64 {
         let mut grp = c.benchmark_group("generate");
@@ -206,9 +202,7 @@ fn bench_size(c: &mut Criterion, g: usize, name: &str) {
         bn.iter(|| {
             let cells = grid.as_mut_slice();
             for &(a, b) in black_box(&ints) {
-                for (x, y, z) in Bresenham3d::new(a, b) {
-                    cells[x as usize + g * (y as usize + g * z as usize)] = 1;
-                }
+                mark(cells, g, Bresenham3d::new(a, b));
             }
         })
     });
@@ -217,9 +211,7 @@ fn bench_size(c: &mut Criterion, g: usize, name: &str) {
         bn.iter(|| {
             let cells = grid.as_mut_slice();
             for (a, b) in black_box(&raw) {
-                for (x, y, z) in walk_voxels(a, b) {
-                    cells[x as usize + g * (y as usize + g * z as usize)] = 1;
-                }
+                mark(cells, g, walk_voxels(a, b));
             }
         })
     });
@@ -237,15 +229,8 @@ fn by_length(c: &mut Criterion) {
         let segs = ours(&raw);
         let ints = floored(&raw);
         let total26: u64 = segs.iter().map(|s| Line26::new(s).len() as u64).sum();
-        let totalb: u64 = ints
-            .iter()
-            .map(|&(a, b)| Bresenham3d::new(a, b).count() as u64)
-            .sum();
         let total6: u64 = segs.iter().map(|s| Tripod6::new(s).len() as u64).sum();
-        let totalw: u64 = raw
-            .iter()
-            .map(|(a, b)| walk_voxels(a, b).count() as u64)
-            .sum();
+        let (totalb, totalw) = peer_voxels(&ints, &raw);
         grp.throughput(Throughput::Elements(total26));
         grp.bench_function(format!("line26/{len}"), |bn| {
             bn.iter(|| xor26(black_box(&segs)))

@@ -20,7 +20,10 @@ use voxkit::line::{Line18, Line26, Segment, Tripod6, walk_mut};
 
 #[path = "common/lines.rs"]
 mod common;
-use common::{floored, ours, segments, walk_voxels, xor_bresenham, xor_walk_voxels, xor6, xor26};
+use common::{
+    floored, mark, ours, peer_voxels, segments, walk_voxels, xor_bresenham, xor_walk_voxels, xor6,
+    xor26,
+};
 
 /// A named measure with the voxels it hands on: runs over every segment
 /// once, returns a value to keep.
@@ -122,14 +125,7 @@ fn main() {
     let ints = floored(&raw);
     let v26 = voxels(&segs, Line26::new);
     let v6 = voxels(&segs, Tripod6::new);
-    let vb: u64 = ints
-        .iter()
-        .map(|&(a, b)| Bresenham3d::new(a, b).count() as u64)
-        .sum();
-    let vw: u64 = raw
-        .iter()
-        .map(|(a, b)| walk_voxels(a, b).count() as u64)
-        .sum();
+    let (vb, vw) = peer_voxels(&ints, &raw);
     let mut gen_cases: Vec<Case> = vec![
         (
             "line26",
@@ -177,14 +173,7 @@ fn main() {
         let idx26 = indices(&|s| Line26::new(s).collect());
         let idx6 = indices(&|s| Tripod6::new(s).collect());
         let idx18 = indices(&|s| Line18::new(s).collect());
-        let vb: u64 = ints
-            .iter()
-            .map(|&(a, b)| Bresenham3d::new(a, b).count() as u64)
-            .sum();
-        let vw: u64 = raw
-            .iter()
-            .map(|(a, b)| walk_voxels(a, b).count() as u64)
-            .sum();
+        let (vb, vw) = peer_voxels(&ints, &raw);
         let walk = |conn: Connectivity| {
             let (grid, segs) = (&grid, &segs);
             move || {
@@ -211,9 +200,7 @@ fn main() {
                     let mut grid = grid.borrow_mut();
                     let cells = grid.as_mut_slice();
                     for &(a, b) in black_box(&ints) {
-                        for (x, y, z) in Bresenham3d::new(a, b) {
-                            cells[x as usize + g * (y as usize + g * z as usize)] = 1;
-                        }
+                        mark(cells, g, Bresenham3d::new(a, b));
                     }
                     0
                 }),
@@ -230,9 +217,7 @@ fn main() {
                     let mut grid = grid.borrow_mut();
                     let cells = grid.as_mut_slice();
                     for (a, b) in black_box(&raw) {
-                        for (x, y, z) in walk_voxels(a, b) {
-                            cells[x as usize + g * (y as usize + g * z as usize)] = 1;
-                        }
+                        mark(cells, g, walk_voxels(a, b));
                     }
                     0
                 }),

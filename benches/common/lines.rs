@@ -101,3 +101,22 @@ pub fn xor_walk_voxels(raw: &[([f64; 3], [f64; 3])]) -> i32 {
         .map(|(a, b)| walk_voxels(a, b).fold(0, |acc, v| acc ^ v.0 ^ v.1 ^ v.2))
         .fold(0, |a, b| a ^ b)
 }
+
+/// Marks the peer's voxels (corner-origin integer coordinates) in a `g³`
+/// grid's cells (x fastest), as the peer's user would.
+#[inline(always)]
+pub fn mark(cells: &mut [u8], g: usize, voxels: impl Iterator<Item = (i32, i32, i32)>) {
+    for (x, y, z) in voxels {
+        cells[x as usize + g * (y as usize + g * z as usize)] = 1;
+    }
+}
+
+/// The voxels the peer's `Bresenham3d` and `WalkVoxels` hand on for the
+/// floored and the raw segments.
+pub fn peer_voxels(ints: &[IPair], raw: &[([f64; 3], [f64; 3])]) -> (u64, u64) {
+    let bresenham = ints
+        .iter()
+        .map(|&(a, b)| Bresenham3d::new(a, b).count() as u64);
+    let walk = raw.iter().map(|(a, b)| walk_voxels(a, b).count() as u64);
+    (bresenham.sum(), walk.sum())
+}
