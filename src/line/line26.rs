@@ -437,7 +437,7 @@ impl Iterator for General26 {
 
 /// Middle columns below this count run scalar: the lanes' set-up costs
 /// about as much as stepping a handful of columns.
-const LANES_MIN_COLUMNS: u64 = 8;
+pub(crate) const LANES_MIN_COLUMNS: u64 = 8;
 
 /// The middle of a 26-line, scalar: `n` column steps from `cur` (the voxel of
 /// the state's column), each voxel handed to `g`; returns the accumulator

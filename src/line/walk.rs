@@ -198,8 +198,8 @@ fn lanes_mid<F: FnMut(usize) -> ControlFlow<()>>(
         avx2::{MidColumns, available},
         mid_indices,
     };
-    let cells = dims.iter().try_fold(1usize, |a, &d| a.checked_mul(d));
-    if n < 8 || cells.is_none_or(|c| c >= 1 << 31) || !available() {
+    use super::line26::LANES_MIN_COLUMNS;
+    if n < LANES_MIN_COLUMNS || !i32_indices(dims) || !available() {
         return None;
     }
     let cols = MidColumns::new([s.eu, s.ev], [s.dm, s.du, s.dv])?;
@@ -373,6 +373,15 @@ pub(crate) fn mask_offsets(axis: [isize; 3]) -> [isize; 8] {
     std::array::from_fn(|m| (0..3).filter(|k| m >> k & 1 == 1).map(|k| axis[k]).sum())
 }
 
+/// Whether a grid of `dims` has fewer than 2^31 cells: the AVX2 lanes
+/// compute its linear indices in `i32`.
+#[inline]
+fn i32_indices(dims: crate::grid::Dims) -> bool {
+    dims.iter()
+        .try_fold(1usize, |a, &d| a.checked_mul(d))
+        .is_some_and(|c| c < 1 << 31)
+}
+
 /// Whether `v` lies in the box `0..dims`.
 #[inline]
 pub(crate) fn in_box(v: Voxel, dims: crate::grid::Dims) -> bool {
@@ -387,10 +396,7 @@ fn dispatch<F: FnMut(usize) -> ControlFlow<()>>(
 ) -> Result<u64, usize> {
     let dims = shape.dims;
     // The common case: a narrow line wholly in the grid, no clipping.
-    let small = dims
-        .iter()
-        .try_fold(1usize, |a, &d| a.checked_mul(d))
-        .is_some_and(|c| c < 1 << 31);
+    let small = i32_indices(dims);
     let stride = [1, dims[0] as isize, (dims[0] * dims[1]) as isize];
     match conn {
         Connectivity::TwentySix => {
