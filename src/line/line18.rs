@@ -122,13 +122,14 @@ impl Mid18<i64> {
 
 /// Walks a narrow 18-line lying wholly in a grid without the general frame:
 /// the compact 26-line's moves with each corner move split (see the module
-/// docs), its visits as linear indices. `idx` is the start voxel's index,
-/// `stride` the index steps of world x, y, z. Returns the number visited, or
+/// docs), its visits as linear indices. `index` gives a voxel's linear
+/// index, `stride` the index steps of world x, y, z. Returns the number visited, or
 /// `Err(index)` where the visitor stopped; `None` if the line is wide, has
 /// longer end paths or leaves the grid.
 pub(crate) fn walk_inside<F: FnMut(usize) -> ControlFlow<()>>(
     seg: &Segment,
     dims: crate::grid::Dims,
+    stride: [isize; 3],
     index: impl Fn(IVec3) -> usize,
     visit: &mut F,
 ) -> Option<Result<u64, usize>> {
@@ -137,7 +138,6 @@ pub(crate) fn walk_inside<F: FnMut(usize) -> ControlFlow<()>>(
     if !c.inside(dims) {
         return None;
     }
-    let stride = [1isize, dims[0] as isize, (dims[0] * dims[1]) as isize];
     let off = super::walk::mask_offsets(super::walk::axis_offsets(c.steps(), stride));
     Some(run_inside(&c, f.tripod_e(), index(c.start()), &off, visit))
 }

@@ -415,7 +415,9 @@ fn dispatch<F: FnMut(usize) -> ControlFlow<()>>(
             }
         }
         Connectivity::Eighteen => {
-            if let Some(r) = super::line18::walk_inside(seg, dims, |v| shape.index(v), visit) {
+            if let Some(r) =
+                super::line18::walk_inside(seg, dims, stride, |v| shape.index(v), visit)
+            {
                 return r;
             }
         }
