@@ -5,6 +5,7 @@
 //!
 //! | module | what |
 //! |---|---|
+//! | [`camera`] | perspective / orthographic camera shared by the rasterizer and the ray caster |
 //! | [`grid`] | dense grid with pointer-offset stepping, bit grid, world↔grid frame |
 //! | [`fixed`] | fixed-point sub-voxel coordinates |
 //! | [`line`] | 3D lines (26, 18, tripod 6, Amanatides–Woo, adaptive) and 2D lines |
@@ -27,6 +28,7 @@
 #![warn(missing_docs)]
 
 pub mod alloc;
+pub mod camera;
 pub mod cli;
 pub mod error;
 pub mod fixed;

@@ -133,10 +133,9 @@ fn voxelize_demo(args: &DemoArgs, out: &mut dyn Write) -> Result<(), CliError> {
     // A reference image of the mesh itself (the ray caster will render the voxels).
     let positions: Vec<Vec3> = mesh.positions.iter().map(|p| p.as_vec3()).collect();
     let (lo, hi) = mesh.bounds();
-    let (lo, hi) = (lo.as_vec3(), hi.as_vec3());
     let centre = (lo + hi) * 0.5;
-    let eye = centre + Vec3::new(1.6, 0.7, -1.4) * (hi - lo).length();
-    let mut camera = crate::triangle::Camera::perspective(eye, centre, Vec3::Y, 35.0);
+    let eye = centre + glam::DVec3::new(1.6, 0.7, -1.4) * (hi - lo).length();
+    let mut camera = crate::camera::Camera::perspective(eye, centre, glam::DVec3::Y, 35.0);
     camera.fit_clip(lo, hi);
     let png = args.out_dir.join("spot.png");
     crate::triangle::render_mesh_png(

@@ -11,7 +11,6 @@
 //! | [`scanline`] | exact scanline spans (Petridis; classic active-edge filling) |
 //! | `interp` | barycentric interpolation, flat / Gouraud shading, painter's order, z-buffer |
 //! | `inside` | batched point-in-triangle tests (qTriangle cross-product form), auto-vectorized |
-//! | `camera` | [`Camera`] (perspective / orthographic), shared with the ray caster |
 //! | `render_mesh` | [`render_mesh`]: 3D mesh → clipped, z-buffered, Gouraud-shaded image |
 //!
 //! Screen conventions (all rasterizers): y down, pixel `(x, y)` sampled at
@@ -24,7 +23,6 @@
 //! Sources: S. Kahan and P. Kelsen, *Constant Time Parallel Indexing of Points
 //! in a Triangle*; J. Pineda, *A Parallel Algorithm for Polygon Rasterization*.
 
-mod camera;
 mod framebuffer;
 pub mod index;
 mod inside;
@@ -36,7 +34,6 @@ mod recip;
 mod render_mesh;
 pub mod scanline;
 
-pub use camera::{Camera, Projection};
 pub use framebuffer::{Framebuffer, MAX_DIM, PngPixel, RenderTarget, Rgb8, Rgba8};
 pub use index::{COORD_LIMIT, LatticePoint, Points, TriangleIndex, TriangleShape};
 pub use inside::{CHUNK, INSIDE_I32_MAX, InsideF32, InsideI32};

@@ -15,7 +15,7 @@
 
 use glam::{Vec3, Vec4};
 
-use super::camera::Camera;
+use crate::camera::Camera;
 use super::framebuffer::{MAX_DIM, RenderTarget, Rgb8};
 use super::interp::{DepthTest, ShadedVertex, Shading, draw_shaded};
 use crate::error::{Result, VoxkitError};
@@ -122,9 +122,11 @@ const PLANES: [Vec4; 6] = [
 ///
 /// ```
 /// use glam::Vec3;
-/// use voxkit::triangle::{render_mesh, Camera, MeshRenderOptions};
+/// use glam::DVec3;
+/// use voxkit::camera::Camera;
+/// use voxkit::triangle::{render_mesh, MeshRenderOptions};
 /// let pos = [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
-/// let cam = Camera::orthographic(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 4.0);
+/// let cam = Camera::orthographic(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 4.0);
 /// let img = render_mesh(&pos, &[[0, 1, 2]], None, &cam, 40, 40, &MeshRenderOptions::default()).unwrap();
 /// assert_ne!(img.color.get(20, 20), Some([0, 0, 0])); // the centre is lit
 /// assert_eq!(img.color.get(2, 2), Some([0, 0, 0])); // the corner is background
@@ -179,15 +181,16 @@ pub fn render_mesh(
             let ambient = opts.ambient.clamp(0.0, 1.0);
             let ortho = matches!(
                 camera.projection,
-                super::camera::Projection::Orthographic { .. }
+                crate::camera::Projection::Orthographic { .. }
             );
-            let fwd = camera.forward();
+            let fwd = camera.forward().as_vec3();
+            let eye = camera.eye.as_vec3();
             (0..positions.len())
                 .map(|i| {
                     let l = if ortho {
                         -fwd
                     } else {
-                        (camera.eye - positions[i]).normalize_or_zero()
+                        (eye - positions[i]).normalize_or_zero()
                     };
                     base(i) * (ambient + (1.0 - ambient) * normals[i].dot(l).abs())
                 })

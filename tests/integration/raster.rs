@@ -2,11 +2,12 @@
 //! functions = brute-force oracle, exact Gouraud at vertices, z-buffer =
 //! painter's on layered scenes, batched = scalar point tests, mesh render.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use voxkit::camera::Camera;
 use voxkit::triangle::{
-    Camera, DepthTest, FixedTriangle, Fragments, Framebuffer, INSIDE_I32_MAX, InsideF32, InsideI32,
+    DepthTest, FixedTriangle, Fragments, Framebuffer, INSIDE_I32_MAX, InsideF32, InsideI32,
     Interpolator, Lighting, MAX_FIXED_COORD, MeshRenderOptions, RenderTarget, SUB_HALF, SUB_ONE,
     ShadedVertex, Shading, TriangleSetup, draw_painter, draw_shaded, draw_zbuffer, edge_spans,
     fill_triangle_edge, fill_triangle_scanline, painter_order, render_mesh, scanline_spans,
@@ -554,7 +555,7 @@ fn cube_face_on_fills_the_expected_square() {
     let bg = [0, 0, 0];
     let opts = MeshRenderOptions::default();
     // Orthographic, 4 world units over 40 pixels: x ∈ [−1, 1] ↦ [10, 30).
-    let cam = Camera::orthographic(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 4.0);
+    let cam = Camera::orthographic(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 4.0);
     let img = render_mesh(&p, &idx, None, &cam, 40, 40, &opts).unwrap();
     assert_square(&img, 10, 29, bg);
     // Lit: every front pixel lies between the darkest and brightest of the
@@ -591,8 +592,8 @@ fn cube_face_on_fills_the_expected_square() {
     assert!((10..30).all(|y| (10..30).all(|x| img.color.get(x, y) == Some(want))));
     // Perspective, 90°, eye 4 units from the front face: x = ±1 ↦ NDC ±¼
     // ↦ pixels [15, 25); the side faces hide behind the front one.
-    let mut cam = Camera::perspective(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 90.0);
-    cam.fit_clip(Vec3::splat(-1.0), Vec3::splat(1.0));
+    let mut cam = Camera::perspective(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 90.0);
+    cam.fit_clip(DVec3::splat(-1.0), DVec3::splat(1.0));
     let img = render_mesh(&p, &idx, None, &cam, 40, 40, &opts).unwrap();
     assert_square(&img, 15, 24, bg);
     // Per-vertex colours, unlit: the front face (z = 1) is interpolated
@@ -608,7 +609,7 @@ fn cube_face_on_fills_the_expected_square() {
     // Depth: the front face is at view distance 4 → NDC z = f(d − n)/((f − n)d).
     let z = img.depth.get(20, 20).unwrap();
     let (n, f) = (cam.near, cam.far);
-    assert!((z - f * (4.0 - n) / ((f - n) * 4.0)).abs() < 1e-4);
+    assert!((z as f64 - f * (4.0 - n) / ((f - n) * 4.0)).abs() < 1e-4);
 }
 
 #[test]
@@ -621,7 +622,7 @@ fn triangle_crossing_the_near_plane_matches_ray_casting() {
         Vec3::new(-1.0, -2.0, 3.0),
     ];
     let idx = vec![[0, 1, 2], [0, 3, 1]];
-    let mut cam = Camera::perspective(Vec3::ZERO, Vec3::new(0.0, -0.3, -1.0), Vec3::Y, 70.0);
+    let mut cam = Camera::perspective(DVec3::ZERO, DVec3::new(0.0, -0.3, -1.0), DVec3::Y, 70.0);
     cam.near = 0.1;
     cam.far = 100.0;
     let (w, h) = (64, 48);
@@ -630,13 +631,12 @@ fn triangle_crossing_the_near_plane_matches_ray_casting() {
     let mut hits = 0;
     for y in 0..h {
         for x in 0..w {
-            let (o, d) = cam.pixel_ray(x as f32 + 0.5, y as f32 + 0.5, w, h);
+            let (o, d) = cam.pixel_ray(x as f64 + 0.5, y as f64 + 0.5, w, h);
             // Ray–triangle (Möller–Trumbore) in f64 with a margin band.
             let mut hit = false;
             let mut near_edge = false;
             for t in &idx {
                 let [a, b, c] = t.map(|i| p[i as usize].as_dvec3());
-                let (o, d) = (o.as_dvec3(), d.as_dvec3());
                 let (e1, e2) = (b - a, c - a);
                 let pv = d.cross(e2);
                 let det = e1.dot(pv);
@@ -675,7 +675,7 @@ fn triangle_crossing_the_near_plane_matches_ray_casting() {
 #[test]
 fn render_errors_and_png_output() {
     let (p, idx) = cube();
-    let cam = Camera::orthographic(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 4.0);
+    let cam = Camera::orthographic(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 4.0);
     let o = MeshRenderOptions::default();
     assert!(render_mesh(&p, &[[0, 1, 8]], None, &cam, 8, 8, &o).is_err());
     assert!(render_mesh(&p, &idx, Some(&p[..3]), &cam, 8, 8, &o).is_err());
@@ -683,9 +683,9 @@ fn render_errors_and_png_output() {
     let mut nan = p.clone();
     nan[2].x = f32::NAN;
     assert!(render_mesh(&nan, &idx, None, &cam, 8, 8, &o).is_err());
-    let bad = Camera::orthographic(Vec3::ZERO, Vec3::ZERO, Vec3::Y, 4.0);
+    let bad = Camera::orthographic(DVec3::ZERO, DVec3::ZERO, DVec3::Y, 4.0);
     assert!(render_mesh(&p, &idx, None, &bad, 8, 8, &o).is_err());
-    let bad = Camera::perspective(Vec3::Z, Vec3::ZERO, Vec3::Z, 60.0);
+    let bad = Camera::perspective(DVec3::Z, DVec3::ZERO, DVec3::Z, 60.0);
     assert!(render_mesh(&p, &idx, None, &bad, 8, 8, &o).is_err());
     let img = render_mesh(&p, &idx, None, &cam, 40, 30, &o).unwrap();
     let dir = std::env::temp_dir().join(format!("voxkit-raster-{}", std::process::id()));
@@ -709,10 +709,10 @@ fn render_errors_and_png_output() {
 fn pixel_rays_project_back_to_their_pixels() {
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     let (w, h) = (80, 50);
-    let eye = Vec3::new(1.0, 2.0, 6.0);
+    let eye = DVec3::new(1.0, 2.0, 6.0);
     let mut cams = [
-        Camera::perspective(eye, Vec3::new(0.5, 0.0, 0.0), Vec3::Y, 50.0),
-        Camera::orthographic(eye, Vec3::new(0.5, 0.0, 0.0), Vec3::Y, 5.0),
+        Camera::perspective(eye, DVec3::new(0.5, 0.0, 0.0), DVec3::Y, 50.0),
+        Camera::orthographic(eye, DVec3::new(0.5, 0.0, 0.0), DVec3::Y, 5.0),
     ];
     for cam in &mut cams {
         cam.near = 0.5;
@@ -723,7 +723,8 @@ fn pixel_rays_project_back_to_their_pixels() {
                 rng.random_range(0.0..w as f32),
                 rng.random_range(0.0..h as f32),
             );
-            let (o, d) = cam.pixel_ray(px, py, w, h);
+            let (o, d) = cam.pixel_ray(px as f64, py as f64, w, h);
+            let (o, d) = (o.as_vec3(), d.as_vec3());
             assert!((d.length() - 1.0).abs() < 1e-5);
             // The origin lies on the near plane.
             let ndc = vp.project_point3(o);
