@@ -104,18 +104,24 @@ pub enum RayMode {
     Six,
 }
 
+/// The stepping state of a discrete ray: the adaptive ray's core, which is
+/// also the pure tripod ray (every voxel flagged: it never leaves 6 mode) and
+/// the pure 26-line (no voxel flagged: it never leaves 26 mode). The ray
+/// caster ([`crate::render`]) drives it voxel by voxel and jumps it across
+/// empty boxes ([`Core::jump`]).
 #[derive(Clone, Copy, Debug)]
-struct Core {
-    f: Frame,
+pub(crate) struct Core {
+    pub(crate) f: Frame,
     plan: Plan26,
-    c: [i64; 3],
-    mode: RayMode,
+    /// Current voxel, local frame.
+    pub(crate) c: [i64; 3],
+    pub(crate) mode: RayMode,
     cursor: Cursor26,
     tri: AnyTripod,
 }
 
 impl Core {
-    fn new(seg: &Segment) -> Self {
+    pub(crate) fn new(seg: &Segment) -> Self {
         let f = Frame::new(seg);
         let plan = Plan26::new(&f);
         Core {
@@ -129,12 +135,93 @@ impl Core {
     }
 
     /// Starts in tripod mode at local voxel `c` of the tripod path.
-    fn at_tripod(seg: &Segment, c: [i64; 3]) -> Self {
+    pub(crate) fn at_tripod(seg: &Segment, c: [i64; 3]) -> Self {
         let mut core = Core::new(seg);
         core.c = c;
         core.mode = RayMode::Six;
         core.tri = AnyTripod::at(&core.f, c);
         core
+    }
+
+    /// [`Core::at_tripod`] on a frame already built.
+    pub(crate) fn at_tripod_in(f: &Frame, c: [i64; 3]) -> Self {
+        let plan = Plan26::new(f);
+        Core {
+            f: *f,
+            plan,
+            c,
+            mode: RayMode::Six,
+            cursor: Cursor26::at(f, plan, 0),
+            tri: AnyTripod::at(f, c),
+        }
+    }
+
+    /// Starts in 26 mode at the first 26-line position inside `b`, if any.
+    pub(crate) fn at_26_in(f: &Frame, b: &GridBox) -> Option<Self> {
+        let plan = Plan26::new(f);
+        let (p0, _) = plan.range(f, b)?;
+        Some(Core {
+            f: *f,
+            plan,
+            c: plan.voxel_at(f, p0),
+            mode: RayMode::TwentySix,
+            cursor: Cursor26::at(f, plan, p0),
+            tri: AnyTripod::at(f, [0; 3]),
+        })
+    }
+
+    /// Whether the current voxel is the segment's end voxel.
+    #[inline]
+    pub(crate) fn at_end(&self) -> bool {
+        self.c == self.f.end
+    }
+
+    /// Jumps past the local box `[c, c + h]` of the current voxel (`h ≥ 0`,
+    /// any size: clipped here) in O(1), in the current mode, to exactly the
+    /// voxel and state that stepping reaches first outside the box (or, in
+    /// 26 mode, the last column of the line's middle). The caller vouches
+    /// that nothing in the box would change the walk: no occupied voxel, and
+    /// for the adaptive ray no flagged one (26 mode stays 26 mode across
+    /// unflagged voxels, and its columns are those of the 26-line). Returns
+    /// the local moves, or `None` where no jump applies (a wide frame, the
+    /// 26-line's prefix or suffix, the end voxel inside the box).
+    pub(crate) fn jump(&mut self, h: [i64; 3]) -> Option<[i64; 3]> {
+        use super::tripod6::{JUMP_MAX_DELTA, JUMP_MAX_EXTENT};
+        if self.f.d[0] > JUMP_MAX_DELTA {
+            return None;
+        }
+        let h = h.map(|x| x.clamp(0, JUMP_MAX_EXTENT));
+        let delta = match self.mode {
+            RayMode::Six => {
+                let AnyTripod::Narrow(s) = &mut self.tri else {
+                    return None;
+                };
+                let h: [i64; 3] = std::array::from_fn(|k| h[k].min(self.f.end[k] - self.c[k]));
+                if (0..3).all(|k| self.c[k] + h[k] == self.f.end[k]) {
+                    return None;
+                }
+                s.exit_box(h)
+            }
+            RayMode::TwentySix => {
+                let cur = &mut self.cursor;
+                if cur.pre_i < cur.plan.pre.len || cur.mid_left == 0 {
+                    return None;
+                }
+                let AnyMid::Narrow(s) = &mut cur.mid else {
+                    return None;
+                };
+                let delta = s.jump_box(h, cur.mid_left);
+                if delta[0] == 0 {
+                    return None;
+                }
+                cur.mid_left -= delta[0] as u64;
+                delta
+            }
+        };
+        for (ck, dk) in self.c.iter_mut().zip(delta) {
+            *ck += dk;
+        }
+        Some(delta)
     }
 
     /// The move (local mask) out of the current voxel given its flag, or
@@ -149,7 +236,7 @@ impl Core {
 
     /// [`Core::step`] before the end voxel (the caller knows it is not there).
     #[inline]
-    fn step_on(&mut self, flagged: bool) -> usize {
+    pub(crate) fn step_on(&mut self, flagged: bool) -> usize {
         if self.mode == RayMode::TwentySix && flagged {
             self.mode = RayMode::Six;
             self.tri = AnyTripod::at(&self.f, self.c);
@@ -309,6 +396,129 @@ mod tests {
     use super::*;
     use crate::grid::MemoryLimit;
     use rand::{Rng, SeedableRng};
+
+    fn random_segment(rng: &mut rand_chacha::ChaCha8Rng, span: f64) -> Segment {
+        let p = |rng: &mut rand_chacha::ChaCha8Rng| -> [f64; 3] {
+            std::array::from_fn(|_| {
+                let x = rng.random_range(-span..span);
+                // Ties: lattice and half-lattice endpoints now and then.
+                match rng.random_range(0..6) {
+                    0 => x.round(),
+                    1 => x.round() + 0.5,
+                    _ => x,
+                }
+            })
+        };
+        Segment::from_f64(p(rng), p(rng)).unwrap()
+    }
+
+    /// Steps `core` (with a constant flag) until its voxel leaves the local
+    /// box `[c0, c0 + h]` or the line ends; in 26 mode also stops after
+    /// `max_cols` columns.
+    fn step_out(core: &mut Core, c0: [i64; 3], h: [i64; 3], flag: bool, max_cols: i64) {
+        let h = h.map(|x| x.min(super::super::tripod6::JUMP_MAX_EXTENT));
+        let inside = |c: [i64; 3]| (0..3).all(|k| c[k] <= c0[k] + h[k]);
+        while inside(core.c) && !core.at_end() && core.c[0] - c0[0] < max_cols {
+            core.step_on(flag);
+        }
+    }
+
+    /// A jump lands exactly where stepping first leaves the box, with the
+    /// same state (the next moves agree), for the tripod and the 26-line, on
+    /// random segments with ties, boxes of every shape.
+    #[test]
+    fn jumps_equal_stepping() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(77);
+        let (mut jumped6, mut jumped26) = (0, 0);
+        for round in 0..4000 {
+            let span = if round % 3 == 0 { 8.0 } else { 300.0 };
+            let seg = random_segment(&mut rng, span);
+            let f = Frame::new(&seg);
+            let h: [i64; 3] = std::array::from_fn(|_| match rng.random_range(0..4) {
+                0 => 0,
+                1 => rng.random_range(0..4),
+                _ => rng.random_range(0..200),
+            });
+            let flag = round % 2 == 0;
+            let mut core = if flag {
+                Core::at_tripod_in(&f, [0; 3])
+            } else {
+                match Core::at_26_in(&f, &GridBox::from_dims([1 << 20; 3]).shifted(-(1 << 19))) {
+                    Some(c) => c,
+                    None => continue,
+                }
+            };
+            // Walk a random prefix first.
+            for _ in 0..rng.random_range(0..40) {
+                if core.at_end() {
+                    break;
+                }
+                core.step_on(flag);
+            }
+            let c0 = core.c;
+            let mut want = core;
+            let mut got = core;
+            let Some(delta) = got.jump(h) else { continue };
+            let max_cols = if flag { i64::MAX } else { delta[0] };
+            step_out(&mut want, c0, h, flag, max_cols);
+            assert_eq!(got.c, want.c, "{seg:?} h {h:?} from {c0:?} (six: {flag})");
+            if flag {
+                jumped6 += 1
+            } else {
+                jumped26 += 1
+            }
+            for _ in 0..30 {
+                if want.at_end() {
+                    assert!(got.at_end());
+                    break;
+                }
+                assert_eq!(
+                    got.step_on(flag),
+                    want.step_on(flag),
+                    "{seg:?} after the jump"
+                );
+            }
+        }
+        assert!(jumped6 > 1000 && jumped26 > 600, "{jumped6} {jumped26}");
+    }
+
+    /// The adaptive ray in 26 mode jumps exactly like stepping too, also
+    /// right after switching back from 6 mode.
+    #[test]
+    fn adaptive_jumps_after_switching_back() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(78);
+        let mut jumped = 0;
+        for _ in 0..3000 {
+            let seg = random_segment(&mut rng, 200.0);
+            let f = Frame::new(&seg);
+            let mut core = Core::at_tripod_in(&f, [0; 3]);
+            // Flagged for a while (6 mode), then unflagged (switch back).
+            for i in 0..rng.random_range(1..30) {
+                if core.at_end() {
+                    break;
+                }
+                core.step_on(i < 10);
+            }
+            if core.mode != RayMode::TwentySix || core.at_end() {
+                continue;
+            }
+            let h: [i64; 3] = std::array::from_fn(|_| rng.random_range(0..100));
+            let c0 = core.c;
+            let mut got = core;
+            let Some(delta) = got.jump(h) else { continue };
+            let mut want = core;
+            step_out(&mut want, c0, h, false, delta[0]);
+            assert_eq!(got.c, want.c, "{seg:?}");
+            for _ in 0..30 {
+                if want.at_end() {
+                    break;
+                }
+                assert_eq!(got.step_on(false), want.step_on(false));
+            }
+            jumped += 1;
+        }
+        assert!(jumped > 500, "{jumped}");
+    }
 
     /// The walk as first written: bounds-checked reads, per-axis box test
     /// and end test at every step.

@@ -66,6 +66,47 @@ impl<T: DecisionInt> Mid26State<T> {
     }
 }
 
+impl Mid26State<i64> {
+    /// Jumps ahead `k ≤ max_cols` columns in O(1), to the first column whose
+    /// voxel leaves the local box `[w, w + h]` of the current voxel `w`
+    /// (`0 ≤ h ≤` [`super::tripod6::JUMP_MAX_EXTENT`]), or `max_cols`
+    /// columns if that comes first. Returns the local moves `[k, n_u, n_v]`;
+    /// the state is exactly the one `k` steps reach.
+    ///
+    /// In the middle of a line `E ∈ [D_u·S − D_m·S, D_u·S)` at every voxel
+    /// (both branches of the step keep it there), and then the minor steps
+    /// taken in `k` columns are `n(k) = ⌊(E + (k − 1)·D_u·S) / (D_m·S)⌋ + 1`:
+    /// the first `k` with `n_u(k) > h_u` is `1 + ⌈(h_u·D_m·S − E) / (D_u·S)⌉`.
+    pub(crate) fn jump_box(&mut self, h: [i64; 3], max_cols: u64) -> [i64; 3] {
+        let (dm, du, dv) = (self.dm, self.du, self.dv);
+        // Off a column voxel (the adaptive ray's first column after a switch
+        // back from 6 mode) the closed form does not hold yet: step first.
+        if !(self.eu >= du - dm && self.eu < du.max(1) && self.ev >= dv - dm && self.ev < dv.max(1))
+        {
+            return [0; 3];
+        }
+        let first_past = |e: i64, d: i64, hk: i64| -> i64 {
+            if d == 0 {
+                return i64::MAX;
+            }
+            let x = hk * dm - e;
+            1 + if x <= 0 { 0 } else { -(-x).div_euclid(d) }
+        };
+        let k = (h[0] + 1)
+            .min(first_past(self.eu, du, h[1]))
+            .min(first_past(self.ev, dv, h[2]))
+            .min(max_cols as i64);
+        if k <= 0 {
+            return [0; 3];
+        }
+        let nu = (self.eu + (k - 1) * du).div_euclid(dm) + 1;
+        let nv = (self.ev + (k - 1) * dv).div_euclid(dm) + 1;
+        self.eu += k * du - nu * dm;
+        self.ev += k * dv - nv * dm;
+        [k, nu, nv]
+    }
+}
+
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum AnyMid {
     Narrow(Mid26State<i64>),

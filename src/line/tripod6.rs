@@ -104,6 +104,94 @@ impl<T: DecisionInt> TripodState<T> {
     }
 }
 
+/// Largest box extent (voxels per local axis) an O(1) jump may take: keeps
+/// every product `h·D·S` of [`TripodState::exit_box`] and
+/// [`super::line26::Mid26State::jump_box`] below `2^62` for direction
+/// components up to [`JUMP_MAX_DELTA`].
+pub(crate) const JUMP_MAX_EXTENT: i64 = 127;
+
+/// Direction components (fixed point, `D·S` below `2^55`: 2^15 voxels) up to
+/// which jumps are exact in `i64`.
+pub(crate) const JUMP_MAX_DELTA: i64 = 1 << 35;
+
+/// `floor(a / b)` for `b > 0`.
+#[inline(always)]
+fn floor_div(a: i64, b: i64) -> i64 {
+    a.div_euclid(b)
+}
+
+impl TripodState<i64> {
+    /// Moves the state past the local box `[c, c + h]` of the current voxel
+    /// `c` (`0 ≤ h_k ≤` [`JUMP_MAX_EXTENT`], the box already clipped to the
+    /// end voxel, at least one axis ending before it): to the first voxel of
+    /// the tripod path outside the box, in O(1). Returns the local moves
+    /// `[δm, δu, δv]`; the state is exactly the one stepping would reach.
+    ///
+    /// The exit face is the first of the box's three far planes the line
+    /// crosses: the tripod's decision tree on the decision variables of the
+    /// virtual voxel `c + h` (they compare exactly those plane crossings).
+    /// Along each other axis `j`, the path has crossed the planes `j` crosses
+    /// before that one: a count from the pair's variable, one division.
+    pub(crate) fn exit_box(&mut self, h: [i64; 3]) -> [i64; 3] {
+        let d = [self.dm, self.du, self.dv];
+        debug_assert!(
+            d.iter()
+                .all(|&x| x < JUMP_MAX_DELTA << crate::fixed::FRAC_BITS)
+        );
+        debug_assert!(h.iter().all(|&x| (0..=JUMP_MAX_EXTENT).contains(&x)));
+        // Biased variable of ordered pair (i, j) at offset `o` from c.
+        let at = |n: usize, o: [i64; 3]| {
+            let (i, j) = super::segment::PAIRS[n];
+            self.e[n] + o[i] * d[j] - o[j] * d[i]
+        };
+        let (a, b, c) = (at(0, h) < 0, at(1, h) < 0, at(2, h) < 0);
+        let k = if a && b {
+            0
+        } else if !a && !c {
+            1
+        } else {
+            2
+        };
+        let mut delta = [0i64; 3];
+        delta[k] = h[k] + 1;
+        for j in 0..3 {
+            if j == k {
+                continue;
+            }
+            // Planes of j crossed before the plane of k at c_k + h_k + 1/2.
+            let n = match pair_index(j, k) {
+                // Stored as (j, k): "j first" ⇔ E_jk + n·d_k − h_k·d_j < 0.
+                (n, false) => {
+                    let x = h[k] * d[j] - self.e[n];
+                    if x <= 0 { 0 } else { -floor_div(-x, d[k]) }
+                }
+                // Stored as (k, j): "j first" ⇔ E_kj + h_k·d_j − n·d_k ≥ 0.
+                (n, true) => (floor_div(self.e[n] + h[k] * d[j], d[k]) + 1).max(0),
+            };
+            delta[j] = n;
+        }
+        for n in 0..3 {
+            let (i, j) = super::segment::PAIRS[n];
+            self.e[n] += delta[i] * d[j] - delta[j] * d[i];
+        }
+        delta
+    }
+}
+
+/// The stored decision variable of the unordered pair `{i, j}`: its index in
+/// [`super::segment::PAIRS`] and whether it is stored as `(j, i)`.
+#[inline(always)]
+fn pair_index(i: usize, j: usize) -> (usize, bool) {
+    match (i, j) {
+        (0, 1) => (0, false),
+        (1, 0) => (0, true),
+        (0, 2) => (1, false),
+        (2, 0) => (1, true),
+        (2, 1) => (2, false),
+        _ => (2, true),
+    }
+}
+
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum AnyTripod {
     Narrow(TripodState<i64>),

@@ -15,9 +15,9 @@
 
 use glam::{Vec3, Vec4};
 
-use crate::camera::Camera;
 use super::framebuffer::{MAX_DIM, RenderTarget, Rgb8};
 use super::interp::{DepthTest, ShadedVertex, Shading, draw_shaded};
+use crate::camera::Camera;
 use crate::error::{Result, VoxkitError};
 
 /// Guard band: clip-space `|x|, |y| ≤ GUARD · w`. With framebuffers up to
