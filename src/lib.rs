@@ -10,6 +10,7 @@
 //! | [`fixed`] | fixed-point sub-voxel coordinates |
 //! | [`line`] | 3D lines (26, 18, tripod 6, Amanatides–Woo, adaptive) and 2D lines |
 //! | [`metric`] | the discrete distances d6, d18, d26 |
+//! | [`render`] | the discrete ray caster: 6 / 26 / adaptive / Amanatides–Woo rays, empty-space skipping |
 //! | [`report`] | speed against error of every line algorithm (what `voxkit demo` prints) |
 //! | [`topology`] | oracles: connectivity, containment, touching |
 //! | [`io`] | atomic file writes; voxel files: binvox, MagicaVoxel .vox, .npy, NRRD |
@@ -38,6 +39,7 @@ pub mod io;
 pub mod line;
 pub mod mesh;
 pub mod metric;
+pub mod render;
 pub mod report;
 pub mod topology;
 pub mod triangle;

@@ -12,6 +12,7 @@ mod check;
 mod demo;
 mod line;
 mod measure;
+mod render;
 mod triangle;
 mod voxelize;
 
@@ -19,6 +20,7 @@ pub use check::CheckArgs;
 pub use demo::DemoArgs;
 pub use line::LineArgs;
 pub use measure::MeasureArgs;
+pub use render::RenderArgs;
 pub use triangle::TriangleArgs;
 pub use voxelize::{ModeArg, VoxelizeArgs};
 
@@ -47,6 +49,8 @@ pub enum Command {
     Check(CheckArgs),
     /// Measure any tool's voxels against the exact conservative set of a mesh.
     Measure(MeasureArgs),
+    /// Render a voxel file, a mesh or a scalar volume with discrete rays (PNG, EXR, GIF).
+    Render(RenderArgs),
 }
 
 /// A command-line failure: the message for stderr and the exit code.
@@ -89,6 +93,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<(), CliError> {
         Command::Voxelize(args) => voxelize::run(args, out),
         Command::Check(args) => check::run(args, out),
         Command::Measure(args) => measure::run(args, out),
+        Command::Render(args) => render::run(args, out),
     }
 }
 

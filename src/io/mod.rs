@@ -3,6 +3,7 @@
 //! the target only once complete, so a failure never leaves a partial file.
 
 pub mod binvox;
+pub mod image;
 pub mod npy;
 pub mod nrrd;
 pub mod vox;

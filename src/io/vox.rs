@@ -223,11 +223,109 @@ fn parse_ints<const N: usize>(s: &str) -> Option<[i64; N]> {
     v.try_into().ok()
 }
 
+/// Colours of a .vox scene: the RGBA palette indexed by MagicaVoxel colour
+/// index, and each placed voxel's index.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct VoxColors {
+    /// RGBA of colour index `c` (1..=255). The file's `RGBA` chunk if it has
+    /// one (its entry `i` is colour index `i + 1`), else MagicaVoxel's
+    /// default palette. Index 0 means "empty" in MagicaVoxel and is
+    /// `[0, 0, 0, 0]` here.
+    pub palette: [[u8; 4]; 256],
+    /// Every placed voxel with its colour index, in the grid coordinates of
+    /// the grid returned beside it. Models in file order, each in its
+    /// `XYZI` order; where models overlap, a voxel is listed once per model.
+    pub voxels: Vec<(IVec3, u8)>,
+}
+
+/// MagicaVoxel's default palette as `0xAABBGGRR` (little-endian RGBA
+/// bytes), entry `i` = colour index `i + 1`: the `default_palette` of the
+/// MagicaVoxel file-format description (ephtracy/voxel-model,
+/// `MagicaVoxel-file-format-vox.txt`) shifted by one, identical to
+/// `resources/default_palette.bytes` of the `dot_vox` crate 5.2.0 (a test
+/// checks them against each other).
+#[rustfmt::skip]
+const DEFAULT_RGBA: [u32; 256] = [
+    0xffffffff, 0xffccffff, 0xff99ffff, 0xff66ffff, 0xff33ffff, 0xff00ffff, 0xffffccff, 0xffccccff,
+    0xff99ccff, 0xff66ccff, 0xff33ccff, 0xff00ccff, 0xffff99ff, 0xffcc99ff, 0xff9999ff, 0xff6699ff,
+    0xff3399ff, 0xff0099ff, 0xffff66ff, 0xffcc66ff, 0xff9966ff, 0xff6666ff, 0xff3366ff, 0xff0066ff,
+    0xffff33ff, 0xffcc33ff, 0xff9933ff, 0xff6633ff, 0xff3333ff, 0xff0033ff, 0xffff00ff, 0xffcc00ff,
+    0xff9900ff, 0xff6600ff, 0xff3300ff, 0xff0000ff, 0xffffffcc, 0xffccffcc, 0xff99ffcc, 0xff66ffcc,
+    0xff33ffcc, 0xff00ffcc, 0xffffcccc, 0xffcccccc, 0xff99cccc, 0xff66cccc, 0xff33cccc, 0xff00cccc,
+    0xffff99cc, 0xffcc99cc, 0xff9999cc, 0xff6699cc, 0xff3399cc, 0xff0099cc, 0xffff66cc, 0xffcc66cc,
+    0xff9966cc, 0xff6666cc, 0xff3366cc, 0xff0066cc, 0xffff33cc, 0xffcc33cc, 0xff9933cc, 0xff6633cc,
+    0xff3333cc, 0xff0033cc, 0xffff00cc, 0xffcc00cc, 0xff9900cc, 0xff6600cc, 0xff3300cc, 0xff0000cc,
+    0xffffff99, 0xffccff99, 0xff99ff99, 0xff66ff99, 0xff33ff99, 0xff00ff99, 0xffffcc99, 0xffcccc99,
+    0xff99cc99, 0xff66cc99, 0xff33cc99, 0xff00cc99, 0xffff9999, 0xffcc9999, 0xff999999, 0xff669999,
+    0xff339999, 0xff009999, 0xffff6699, 0xffcc6699, 0xff996699, 0xff666699, 0xff336699, 0xff006699,
+    0xffff3399, 0xffcc3399, 0xff993399, 0xff663399, 0xff333399, 0xff003399, 0xffff0099, 0xffcc0099,
+    0xff990099, 0xff660099, 0xff330099, 0xff000099, 0xffffff66, 0xffccff66, 0xff99ff66, 0xff66ff66,
+    0xff33ff66, 0xff00ff66, 0xffffcc66, 0xffcccc66, 0xff99cc66, 0xff66cc66, 0xff33cc66, 0xff00cc66,
+    0xffff9966, 0xffcc9966, 0xff999966, 0xff669966, 0xff339966, 0xff009966, 0xffff6666, 0xffcc6666,
+    0xff996666, 0xff666666, 0xff336666, 0xff006666, 0xffff3366, 0xffcc3366, 0xff993366, 0xff663366,
+    0xff333366, 0xff003366, 0xffff0066, 0xffcc0066, 0xff990066, 0xff660066, 0xff330066, 0xff000066,
+    0xffffff33, 0xffccff33, 0xff99ff33, 0xff66ff33, 0xff33ff33, 0xff00ff33, 0xffffcc33, 0xffcccc33,
+    0xff99cc33, 0xff66cc33, 0xff33cc33, 0xff00cc33, 0xffff9933, 0xffcc9933, 0xff999933, 0xff669933,
+    0xff339933, 0xff009933, 0xffff6633, 0xffcc6633, 0xff996633, 0xff666633, 0xff336633, 0xff006633,
+    0xffff3333, 0xffcc3333, 0xff993333, 0xff663333, 0xff333333, 0xff003333, 0xffff0033, 0xffcc0033,
+    0xff990033, 0xff660033, 0xff330033, 0xff000033, 0xffffff00, 0xffccff00, 0xff99ff00, 0xff66ff00,
+    0xff33ff00, 0xff00ff00, 0xffffcc00, 0xffcccc00, 0xff99cc00, 0xff66cc00, 0xff33cc00, 0xff00cc00,
+    0xffff9900, 0xffcc9900, 0xff999900, 0xff669900, 0xff339900, 0xff009900, 0xffff6600, 0xffcc6600,
+    0xff996600, 0xff666600, 0xff336600, 0xff006600, 0xffff3300, 0xffcc3300, 0xff993300, 0xff663300,
+    0xff333300, 0xff003300, 0xffff0000, 0xffcc0000, 0xff990000, 0xff660000, 0xff330000, 0xff0000ee,
+    0xff0000dd, 0xff0000bb, 0xff0000aa, 0xff000088, 0xff000077, 0xff000055, 0xff000044, 0xff000022,
+    0xff000011, 0xff00ee00, 0xff00dd00, 0xff00bb00, 0xff00aa00, 0xff008800, 0xff007700, 0xff005500,
+    0xff004400, 0xff002200, 0xff001100, 0xffee0000, 0xffdd0000, 0xffbb0000, 0xffaa0000, 0xff880000,
+    0xff770000, 0xff550000, 0xff440000, 0xff220000, 0xff110000, 0xffeeeeee, 0xffdddddd, 0xffbbbbbb,
+    0xffaaaaaa, 0xff888888, 0xff777777, 0xff555555, 0xff444444, 0xff222222, 0xff111111, 0x00000000,
+];
+
+/// MagicaVoxel's default palette indexed by colour index (index 0, unused,
+/// is transparent black).
+pub fn default_palette() -> [[u8; 4]; 256] {
+    let mut p = [[0u8; 4]; 256];
+    for (c, rgba) in p.iter_mut().enumerate().skip(1) {
+        *rgba = DEFAULT_RGBA[c - 1].to_le_bytes();
+    }
+    p
+}
+
+/// The palette of an `RGBA` chunk: entry `i` is colour index `i + 1` (the
+/// format's quirk); the 256th entry has no index and is dropped. A short
+/// chunk leaves the remaining indices at their default colours.
+fn palette_of_chunk(body: &[u8]) -> Result<[[u8; 4]; 256]> {
+    if !body.len().is_multiple_of(4) || body.len() > 1024 {
+        return Err(bad(format!("RGBA chunk of {} bytes", body.len())));
+    }
+    let mut p = default_palette();
+    for (c, rgba) in body.chunks_exact(4).take(255).enumerate() {
+        p[c + 1].copy_from_slice(rgba);
+    }
+    Ok(p)
+}
+
 /// Reads a .vox file from memory (see the module docs for placement and the
 /// frame). Errors: bad magic, truncated chunks, model sizes outside 1..=256,
 /// voxels outside their model, rotated transforms (unsupported), a broken
 /// scene graph.
-pub fn read(bytes: &[u8], _limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)> {
+pub fn read(bytes: &[u8], limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)> {
+    let (grid, frame, _) = read_scene(bytes, limit, false)?;
+    Ok((grid, frame))
+}
+
+/// [`read`], plus the colours: the palette (the file's or the default) and
+/// the colour index of every placed voxel, for drawing the scene in its
+/// colours. The colour list is checked against `limit` before it is built.
+pub fn read_colored(bytes: &[u8], limit: MemoryLimit) -> Result<(BrickGrid, GridFrame, VoxColors)> {
+    read_scene(bytes, limit, true)
+}
+
+/// The shared reader; the colour list is built only if `colors`.
+fn read_scene(
+    bytes: &[u8],
+    limit: MemoryLimit,
+    colors: bool,
+) -> Result<(BrickGrid, GridFrame, VoxColors)> {
     let mut c = Cursor { b: bytes, pos: 0 };
     if c.take(4)? != b"VOX " {
         return Err(bad("missing 'VOX ' magic"));
@@ -246,7 +344,10 @@ pub fn read(bytes: &[u8], _limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)>
         .ok_or_else(|| bad("MAIN chunk is truncated"))?;
 
     let mut sizes: Vec<IVec3> = Vec::new();
-    let mut models: Vec<Vec<IVec3>> = Vec::new();
+    // Each model's `XYZI` records (x, y, z, colour index), borrowed from
+    // the input once checked.
+    let mut models: Vec<&[u8]> = Vec::new();
+    let mut palette = None;
     let mut nodes: HashMap<i32, Node> = HashMap::new();
     let mut root_attrs = HashMap::new();
     while c.pos < end {
@@ -270,7 +371,6 @@ pub fn read(bytes: &[u8], _limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)>
                     .ok_or_else(|| bad("XYZI without SIZE"))?;
                 let n = b.len()?;
                 let raw = b.take(n.checked_mul(4).ok_or_else(|| bad("voxel count"))?)?;
-                let mut vox = Vec::with_capacity(n);
                 for q in raw.chunks_exact(4) {
                     let v = IVec3::new(q[0] as i32, q[1] as i32, q[2] as i32);
                     if v.cmpge(s).any() {
@@ -279,9 +379,8 @@ pub fn read(bytes: &[u8], _limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)>
                             models.len()
                         )));
                     }
-                    vox.push(v);
                 }
-                models.push(vox);
+                models.push(raw);
             }
             b"nTRN" => {
                 let node = b.i32()?;
@@ -333,7 +432,8 @@ pub fn read(bytes: &[u8], _limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)>
                 }
                 nodes.insert(node, Node::Shape(ids));
             }
-            _ => {} // palette, materials, layers, cameras...: not needed
+            b"RGBA" => palette = Some(palette_of_chunk(body)?),
+            _ => {} // materials, layers, cameras, index map...: not needed
         }
     }
     if models.len() != sizes.len() {
@@ -358,7 +458,16 @@ pub fn read(bytes: &[u8], _limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)>
                 return Err(bad("scene graph has a cycle"));
             }
             match nodes.get(&id) {
-                Some(Node::Transform { child, t }) => stack.push((*child, acc + *t)),
+                Some(Node::Transform { child, t }) => {
+                    // Nested translations add up: keep the sum in the
+                    // range every single translation has, so no later
+                    // coordinate arithmetic can overflow.
+                    let sum = acc.as_i64vec3() + t.as_i64vec3();
+                    if sum.abs().max_element() >= 1 << 30 {
+                        return Err(bad(format!("node {id}: placement {sum} out of range")));
+                    }
+                    stack.push((*child, sum.as_ivec3()));
+                }
                 Some(Node::Group(kids)) => stack.extend(kids.iter().map(|&k| (k, acc))),
                 Some(Node::Shape(ids)) => {
                     for &m in ids {
@@ -377,21 +486,27 @@ pub fn read(bytes: &[u8], _limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)>
         }
     }
 
-    let mut grid = BrickGrid::new();
+    // A model no shape node places is not part of the scene.
+    let placed: Vec<(IVec3, &[u8])> = offset
+        .iter()
+        .zip(&models)
+        .filter_map(|(o, raw)| o.map(|o| (o, *raw)))
+        .collect();
     let mut lo = IVec3::MAX;
     let mut hi = IVec3::MIN;
-    for (m, vox) in models.iter().enumerate() {
-        // A model no shape node places is not part of the scene.
-        let Some(o) = offset[m] else { continue };
-        lo = lo.min(o);
-        hi = hi.max(o + sizes[m]);
-        grid.extend(vox.iter().map(|&v| v + o));
+    for (m, o) in offset.iter().enumerate() {
+        if let Some(o) = o {
+            lo = lo.min(*o);
+            hi = hi.max(*o + sizes[m]);
+        }
     }
     if lo.x > hi.x {
         return Err(bad("no model is placed in the scene"));
     }
 
-    let frame = match (
+    // With the frame stored, voxels keep their placed coordinates;
+    // without it, they shift so the placed boxes start at voxel 0.
+    let (frame, shift) = match (
         root_attrs.get("voxkit_origin"),
         root_attrs.get("voxkit_voxel_size"),
         root_attrs.get("voxkit_dims"),
@@ -410,21 +525,153 @@ pub fn read(bytes: &[u8], _limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)>
                 .filter(|d| d.iter().all(|&x| x > 0 && x <= i32::MAX as i64))
                 .ok_or_else(|| bad(format!("bad voxkit_dims {d:?}")))?;
             let frame = GridFrame::new(DVec3::new(o[0], o[1], o[2]), h, d.map(|x| x as usize));
-            grid.check_inside(frame.dims)?;
-            frame
+            (frame, IVec3::ZERO)
         }
         _ => {
-            // Shift so the placed boxes start at voxel 0.
             let dims = (hi - lo).as_uvec3();
-            let mut shifted = BrickGrid::new();
-            shifted.extend(grid.iter_unordered().map(|v| v - lo));
-            grid = shifted;
-            GridFrame::new(
+            let frame = GridFrame::new(
                 lo.as_dvec3(),
                 1.0,
                 [dims.x as usize, dims.y as usize, dims.z as usize],
-            )
+            );
+            (frame, -lo)
         }
     };
-    Ok((grid, frame))
+
+    let records = || {
+        placed.iter().flat_map(move |&(o, raw)| {
+            raw.chunks_exact(4).map(move |q| {
+                let v = IVec3::new(q[0] as i32, q[1] as i32, q[2] as i32);
+                (v + o + shift, q[3])
+            })
+        })
+    };
+    let mut grid = BrickGrid::new();
+    grid.extend(records().map(|(v, _)| v));
+    grid.check_inside(frame.dims)?;
+    let mut voxels = Vec::new();
+    if colors {
+        let n: usize = placed.iter().map(|(_, raw)| raw.len() / 4).sum();
+        limit.check(
+            "vox colour list",
+            n as u128,
+            std::mem::size_of::<(IVec3, u8)>() as u128,
+        )?;
+        voxels.reserve_exact(n);
+        voxels.extend(records());
+    }
+    let colors = VoxColors {
+        palette: palette.unwrap_or_else(default_palette),
+        voxels,
+    };
+    Ok((grid, frame, colors))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_palette_is_magicavoxels() {
+        let p = default_palette();
+        assert_eq!(p[0], [0, 0, 0, 0]);
+        for (i, c) in dot_vox::DEFAULT_PALETTE.iter().take(255).enumerate() {
+            assert_eq!(p[i + 1], <[u8; 4]>::from(c), "colour index {}", i + 1);
+        }
+        assert_eq!(p[1], [255, 255, 255, 255]);
+    }
+
+    #[test]
+    fn custom_palette_from_dot_vox_reads_back() {
+        let palette: Vec<dot_vox::Color> = (0..256u32)
+            .map(|i| dot_vox::Color {
+                r: i as u8,
+                g: (255 - i) as u8,
+                b: (i * 7) as u8,
+                a: 100 + (i % 100) as u8,
+            })
+            .collect();
+        // dot_vox's `i` is the file's colour index minus one.
+        let voxels: Vec<dot_vox::Voxel> =
+            [(0, 0, 0, 0), (3, 1, 2, 7), (4, 4, 4, 254), (1, 2, 3, 128)]
+                .iter()
+                .map(|&(x, y, z, i)| dot_vox::Voxel { x, y, z, i })
+                .collect();
+        let data = dot_vox::DotVoxData {
+            version: 150,
+            index_map: dot_vox::DEFAULT_INDEX_MAP.to_vec(),
+            models: vec![dot_vox::Model {
+                size: dot_vox::Size { x: 5, y: 5, z: 5 },
+                voxels: voxels.clone(),
+            }],
+            palette: palette.clone(),
+            materials: vec![],
+            scenes: vec![],
+            layers: vec![],
+        };
+        let mut bytes = Vec::new();
+        data.write_vox(&mut bytes).unwrap();
+        let (grid, frame, colors) = read_colored(&bytes, MemoryLimit::DEFAULT).unwrap();
+        assert_eq!(frame.dims, [5, 5, 5]);
+        assert_eq!(grid.count(), 4);
+        assert_eq!(colors.voxels.len(), 4);
+        for (v, (p, c)) in voxels.iter().zip(&colors.voxels) {
+            assert_eq!(p.to_array(), [v.x as i32, v.y as i32, v.z as i32]);
+            assert!(grid.contains(*p));
+            assert_eq!(*c, v.i + 1);
+            // The colour dot_vox shows for the voxel is the one we give.
+            assert_eq!(
+                colors.palette[*c as usize],
+                <[u8; 4]>::from(palette[v.i as usize])
+            );
+        }
+        // `read` sees the same grid.
+        assert_eq!(read(&bytes, MemoryLimit::DEFAULT).unwrap(), (grid, frame));
+    }
+
+    #[test]
+    fn own_files_use_the_default_palette_and_index_1() {
+        let mut grid = BrickGrid::new();
+        for v in [
+            IVec3::new(0, 0, 0),
+            IVec3::new(299, 5, 2),
+            IVec3::new(7, 260, 1),
+        ] {
+            grid.insert(v);
+        }
+        let frame = GridFrame::new(DVec3::new(1.0, 2.0, 3.0), 0.5, [300, 261, 3]);
+        let mut bytes = Vec::new();
+        write(&mut bytes, &grid, &frame).unwrap();
+        let (g, f, colors) = read_colored(&bytes, MemoryLimit::DEFAULT).unwrap();
+        assert_eq!((&g, f), (&grid, frame));
+        assert_eq!(colors.palette, default_palette());
+        let mut placed: Vec<IVec3> = colors
+            .voxels
+            .iter()
+            .map(|&(v, c)| {
+                assert_eq!(c, 1);
+                v
+            })
+            .collect();
+        placed.sort_by_key(|v| (v.z, v.y, v.x));
+        let mut want: Vec<IVec3> = grid.iter().collect();
+        want.sort_by_key(|v| (v.z, v.y, v.x));
+        assert_eq!(placed, want);
+        // The colour list counts against the limit.
+        assert!(matches!(
+            read_colored(&bytes, MemoryLimit::new(10)),
+            Err(VoxkitError::Limits { .. })
+        ));
+        assert!(read(&bytes, MemoryLimit::new(10)).is_ok());
+    }
+
+    #[test]
+    fn rgba_chunk_sizes() {
+        assert!(palette_of_chunk(&[0; 1028]).is_err());
+        assert!(palette_of_chunk(&[0; 7]).is_err());
+        // A short chunk overrides the first indices only.
+        let p = palette_of_chunk(&[9, 9, 9, 9]).unwrap();
+        assert_eq!(p[1], [9; 4]);
+        assert_eq!(p[2], default_palette()[2]);
+    }
 }

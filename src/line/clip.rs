@@ -28,14 +28,6 @@ impl GridBox {
         }
     }
 
-    /// The box moved by `d` voxels on every axis.
-    pub fn shifted(&self, d: i32) -> Self {
-        GridBox {
-            lo: self.lo + d,
-            hi: self.hi + d,
-        }
-    }
-
     /// Whether `v` lies in the box.
     pub fn contains(&self, v: Voxel) -> bool {
         v.cmpge(self.lo).all() && v.cmple(self.hi).all()

@@ -1,0 +1,506 @@
+//! `voxkit render INPUT -o OUT.png [options]`: the discrete ray caster on a
+//! voxel file, a mesh (voxelized first) or a scalar volume.
+//!
+//! `--json` prints one line with `input`, `kind` (`grid` / `volume`),
+//! `dims`, `voxels`, `ray`, `skip`, `size`, `rays`, `hits`,
+//! `voxels_visited`, `bricks_skipped`, `load_ms` (reading, and voxelizing a
+//! mesh), `prepare_ms` (render structures), `render_ms` (per frame; the
+//! median with `--turntable`), `frames`, `memory_bytes` (render structures
+//! plus image buffers), `peak_rss_mib` and, with `--measure`, the error
+//! measures (`differing_pixels` against the 6-ray and, for meshes,
+//! `mesh_depth_mean`, `mesh_depth_max`, `silhouette_disagree`).
+
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::CliError;
+use super::voxelize::{ModeArg, peak_rss_mib};
+use crate::camera::{Camera, SceneAxes, ViewPreset};
+use crate::grid::{BrickGrid, GridFrame, MemoryLimit};
+use crate::mesh::Mesh;
+use crate::render::{
+    GridTransform, NormalMode, OccupancyGrid, RayKind, RenderImage, RenderOptions, RenderStats,
+    render_grid,
+};
+use crate::voxelize::pipeline::{VoxelizeOptions, voxelize_mesh};
+
+/// `--ray` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum RayArg {
+    /// Tripod 6-connected: every voxel the ray passes through (reference).
+    #[value(name = "6")]
+    Six,
+    /// 26-connected: fastest, may slip through diagonal gaps.
+    #[value(name = "26")]
+    TwentySix,
+    /// 26 in empty space, 6 near objects: the 6-ray's image, faster.
+    Adaptive,
+    /// Amanatides–Woo in f64, for comparison.
+    Aw,
+}
+
+impl From<RayArg> for RayKind {
+    fn from(r: RayArg) -> Self {
+        match r {
+            RayArg::Six => RayKind::Six,
+            RayArg::TwentySix => RayKind::TwentySix,
+            RayArg::Adaptive => RayKind::Adaptive,
+            RayArg::Aw => RayKind::AmanatidesWoo,
+        }
+    }
+}
+
+/// `--view` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ViewArg {
+    /// From the front.
+    Front,
+    /// From behind.
+    Back,
+    /// From the left.
+    Left,
+    /// From the right.
+    Right,
+    /// From above.
+    Top,
+    /// From below.
+    Bottom,
+    /// Three-quarter view (the default).
+    Iso,
+}
+
+impl From<ViewArg> for ViewPreset {
+    fn from(v: ViewArg) -> Self {
+        match v {
+            ViewArg::Front => ViewPreset::Front,
+            ViewArg::Back => ViewPreset::Back,
+            ViewArg::Left => ViewPreset::Left,
+            ViewArg::Right => ViewPreset::Right,
+            ViewArg::Top => ViewPreset::Top,
+            ViewArg::Bottom => ViewPreset::Bottom,
+            ViewArg::Iso => ViewPreset::Iso,
+        }
+    }
+}
+
+/// `--normals` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum NormalsArg {
+    /// The hit voxel's entry face.
+    Face,
+    /// Occupancy (or value) gradient.
+    Smooth,
+}
+
+/// Arguments of `voxkit render`.
+///
+/// World coordinates (`--eye`, `--target`, `--up`, EXR depth) are those of
+/// the input's own frame: binvox `translate`/`scale`, NRRD `space origin` and
+/// `space directions`, MetaImage `Offset`/`ElementSpacing`, the voxkit frame
+/// stored in .vox files, the mesh's own coordinates; `.npy` has none (voxel
+/// (i,j,k) centred at (i+½, j+½, k+½), unit voxels).
+#[derive(Debug, clap::Args)]
+#[command(
+    after_help = "World coordinates (--eye, --target, --up and the EXR's Z) are those of the \
+input's own frame: binvox translate/scale, NRRD space origin/directions, MetaImage \
+Offset/ElementSpacing, the mesh's own coordinates; .npy files get unit voxels from the origin. \
+Meshes and binvox/npy/NRRD grids are taken as Y-up, scalar volumes and .vox files as Z-up \
+(override with --up)."
+)]
+pub struct RenderArgs {
+    /// Input: .binvox, .vox, .npy, .nrrd, .nhdr, .mhd/.mha, or a mesh (.obj, .gltf, .glb).
+    pub input: PathBuf,
+    /// Output PNG (with --turntable N: a .gif, or a PNG name numbered per frame).
+    #[arg(short = 'o', long = "output", value_name = "OUT.png")]
+    pub output: PathBuf,
+    /// Also write an OpenEXR with float R, G, B, A and Z (distance along the ray, +inf for misses).
+    #[arg(long, value_name = "OUT.exr")]
+    pub exr: Option<PathBuf>,
+    /// Image size.
+    #[arg(long, value_name = "WxH", default_value = "1024x1024", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Ray kind.
+    #[arg(long, value_enum, default_value = "adaptive")]
+    pub ray: RayArg,
+    /// Do not skip empty space (the image is identical; only slower).
+    #[arg(long)]
+    pub no_skip: bool,
+    /// Camera position (world).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<DVec3>,
+    /// Point looked at (world; default: the centre of the data).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub target: Option<DVec3>,
+    /// Up direction.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub up: Option<DVec3>,
+    /// Vertical field of view in degrees, in (0, 180).
+    #[arg(long, value_name = "DEG", default_value_t = 35.0)]
+    pub fov: f64,
+    /// Orthographic projection.
+    #[arg(long)]
+    pub ortho: bool,
+    /// View direction preset (ignored with --eye).
+    #[arg(long, value_enum, default_value = "iso")]
+    pub view: ViewArg,
+    /// Write N frames around the vertical axis.
+    #[arg(long, value_name = "N")]
+    pub turntable: Option<u32>,
+    /// Normals for shading.
+    #[arg(long, value_enum, default_value = "face")]
+    pub normals: NormalsArg,
+    /// Background colour, linear RGB in [0, 1].
+    #[arg(long, value_name = "R,G,B", value_parser = parse_vec3, default_value = "0.07,0.08,0.1")]
+    pub background: DVec3,
+    /// Meshes: voxels along the longest side.
+    #[arg(
+        short = 'r',
+        long = "resolution",
+        value_name = "N",
+        default_value_t = 256
+    )]
+    pub resolution: u32,
+    /// Meshes: which voxel set to render.
+    #[arg(long, value_enum, default_value = "thin")]
+    pub mode: ModeArg,
+    /// Print one line of JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Measure the image error (against the 6-ray image, and for meshes the rasterized mesh).
+    #[arg(long)]
+    pub measure: bool,
+    /// Overwrite existing outputs.
+    #[arg(long)]
+    pub force: bool,
+    /// Memory limit in MiB (checked before allocating).
+    #[arg(long, value_name = "MIB", default_value_t = 4096)]
+    pub max_memory: u64,
+    /// No progress bar.
+    #[arg(short = 'q', long)]
+    pub quiet: bool,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .to_ascii_lowercase()
+        .split_once('x')
+        .map(|(a, b)| (a.trim().parse::<u32>(), b.trim().parse::<u32>()))
+        .ok_or_else(|| format!("{s:?}: expected WxH, e.g. 1024x768"))?;
+    match (w, h) {
+        (Ok(w), Ok(h)) if w > 0 && h > 0 => Ok((w, h)),
+        _ => Err(format!("{s:?}: width and height must be positive integers")),
+    }
+}
+
+fn parse_vec3(s: &str) -> Result<DVec3, String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("{s:?}: expected three numbers X,Y,Z"))?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(DVec3::new(x, y, z)),
+        _ => Err(format!("{s:?}: expected three finite numbers X,Y,Z")),
+    }
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// Mesh file extensions `render` voxelizes first.
+fn is_mesh(path: &Path) -> bool {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    matches!(ext.as_str(), "obj" | "gltf" | "glb")
+}
+
+/// What was loaded: a voxel grid in its frame, with the scene's axes.
+struct Scene {
+    grid: BrickGrid,
+    frame: GridFrame,
+    colors: Option<crate::io::vox::VoxColors>,
+    axes: SceneAxes,
+    mesh: Option<Mesh>,
+}
+
+fn load(args: &RenderArgs, limit: MemoryLimit) -> Result<Scene, CliError> {
+    let path = &args.input;
+    if is_mesh(path) {
+        let mesh = Mesh::load(path)?;
+        let mut opts = VoxelizeOptions::new(args.resolution, args.mode.into());
+        opts.limit = limit;
+        let v = voxelize_mesh(&mesh, &opts)?;
+        return Ok(Scene {
+            grid: v.grid,
+            frame: v.frame,
+            colors: None,
+            axes: SceneAxes::Y_UP,
+            mesh: Some(mesh),
+        });
+    }
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if ext == "vox" {
+        let bytes = std::fs::read(path)
+            .map_err(|e| CliError::bad_input(format!("{}: {e}", path.display())))?;
+        let (grid, frame, colors) = crate::io::vox::read_colored(&bytes, limit)
+            .map_err(|e| CliError::bad_input(format!("{}: {e}", path.display())))?;
+        return Ok(Scene {
+            grid,
+            frame,
+            colors: Some(colors),
+            axes: SceneAxes::Z_UP,
+            mesh: None,
+        });
+    }
+    let (grid, frame) = crate::io::read_voxels(path, limit)?;
+    Ok(Scene {
+        grid,
+        frame,
+        colors: None,
+        axes: SceneAxes::Y_UP,
+        mesh: None,
+    })
+}
+
+/// The camera for the options, framing the world box `[lo, hi]`.
+fn camera(args: &RenderArgs, lo: DVec3, hi: DVec3, axes: SceneAxes) -> Result<Camera, CliError> {
+    let (w, h) = args.size;
+    let fov = (!args.ortho).then_some(args.fov);
+    if !(args.fov > 0.0 && args.fov < 180.0) {
+        return Err(CliError::bad_input(format!(
+            "--fov {}: the field of view must be in (0, 180) degrees",
+            args.fov
+        )));
+    }
+    let (dir, preset_up) = axes.view(args.view.into());
+    let up = args.up.unwrap_or(preset_up);
+    let target = args.target.unwrap_or((lo + hi) * 0.5);
+    let cam = match args.eye {
+        Some(eye) => {
+            let size = (hi - lo).length().max(1e-9);
+            if args.ortho {
+                Camera::orthographic(eye, target, up, size)
+            } else {
+                Camera::perspective(eye, target, up, args.fov)
+            }
+        }
+        None => {
+            let mut c = Camera::framing(lo, hi, dir, up, fov, w, h)?;
+            if let Some(t) = args.target {
+                let shift = t - c.target;
+                c.eye += shift;
+                c.target = t;
+            }
+            c
+        }
+    };
+    crate::render::camera_check(&cam)?;
+    Ok(cam)
+}
+
+/// Runs `voxkit render`.
+pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
+    let limit = MemoryLimit::new(args.max_memory.saturating_mul(1 << 20));
+    let frames = args.turntable.unwrap_or(1);
+    if frames == 0 {
+        return Err(CliError::bad_input("--turntable needs at least one frame"));
+    }
+    let outputs = frame_paths(&args.output, args.turntable)?;
+    for p in outputs.iter().chain(args.exr.iter()) {
+        if !args.force && p.exists() {
+            return Err(CliError::bad_input(format!(
+                "{} exists (use --force to overwrite)",
+                p.display()
+            )));
+        }
+    }
+    let (w, h) = args.size;
+    crate::render::check_image(w, h, limit)?;
+    let t = Instant::now();
+    let scene = load(&args, limit)?;
+    let load_ms = ms(t);
+    let t = Instant::now();
+    let mut occ = OccupancyGrid::new(&scene.grid, scene.frame.dims, limit)?;
+    if let Some(c) = &scene.colors {
+        occ.set_colors(&c.voxels, c.palette);
+    }
+    let xf = GridTransform::from_frame(&scene.frame)?;
+    let prepare_ms = ms(t);
+    let dims = scene.frame.dims.map(|d| d as f64);
+    let (lo, hi) = match occ.bounds() {
+        Some((a, b)) => xf.world_bounds(a.as_dvec3() - 0.5, b.as_dvec3() + 0.5),
+        None => xf.world_bounds(DVec3::splat(-0.5), DVec3::from_array(dims) - 0.5),
+    };
+    let base_cam = camera(&args, lo, hi, scene.axes)?;
+    let opts = RenderOptions {
+        width: w,
+        height: h,
+        ray: args.ray.into(),
+        skip: !args.no_skip,
+        normals: match args.normals {
+            NormalsArg::Face => NormalMode::Face,
+            NormalsArg::Smooth => NormalMode::Smooth,
+        },
+        background: args.background.as_vec3().to_array(),
+        limit,
+        ..RenderOptions::default()
+    };
+    let bar = (!args.quiet && std::io::stderr().is_terminal() && frames > 1).then(|| {
+        let b = indicatif::ProgressBar::new(frames as u64);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} {elapsed_precise} [{bar:30}] frame {pos}/{len}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    let mut times = Vec::new();
+    let mut first: Option<(RenderImage, RenderStats, Camera)> = None;
+    let mut gif_frames = Vec::new();
+    for i in 0..frames {
+        let cam = if frames > 1 {
+            base_cam.orbited(
+                scene.axes.up,
+                std::f64::consts::TAU * i as f64 / frames as f64,
+            )
+        } else {
+            base_cam
+        };
+        let (img, stats) = render_grid(&occ, &xf, &cam, &opts)?;
+        times.push(stats.render_ms);
+        let rgba = img.to_rgba8(opts.background);
+        if is_gif(&args.output) {
+            gif_frames.push(rgba);
+        } else {
+            crate::io::image::write_png_rgba(&outputs[i as usize], w, h, &rgba, args.force)?;
+        }
+        if let Some(b) = &bar {
+            b.inc(1);
+        }
+        if first.is_none() {
+            first = Some((img, stats, cam));
+        }
+    }
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    if is_gif(&args.output) {
+        crate::io::image::write_gif(&args.output, w, h, &gif_frames, 8, args.force)?;
+    }
+    let (img, stats, cam) = first.expect("at least one frame");
+    if let Some(exr) = &args.exr {
+        let premultiplied: Vec<[f32; 4]> = img
+            .color
+            .iter()
+            .map(|c| [c[0] * c[3], c[1] * c[3], c[2] * c[3], c[3]])
+            .collect();
+        crate::io::image::write_exr(exr, w, h, &premultiplied, &img.depth, args.force)?;
+    }
+    times.sort_by(f64::total_cmp);
+    let render_ms = times[times.len() / 2];
+    let mut j = serde_json::json!({
+        "input": args.input.display().to_string(),
+        "output": args.output.display().to_string(),
+        "kind": "grid",
+        "dims": scene.frame.dims,
+        "voxels": occ.voxel_count(),
+        "ray": RayKind::from(args.ray).name(),
+        "skip": !args.no_skip,
+        "size": [w, h],
+        "frames": frames,
+        "rays": stats.rays,
+        "hits": stats.hits,
+        "voxels_visited": stats.voxels_visited,
+        "bricks_skipped": stats.bricks_skipped,
+        "load_ms": load_ms,
+        "prepare_ms": prepare_ms,
+        "render_ms": render_ms,
+        "memory_bytes": occ.heap_bytes() as u64 + w as u64 * h as u64 * 36,
+        "stored_bricks": occ.stored_bricks(),
+    });
+    let obj = j.as_object_mut().expect("json! of an object literal");
+    if args.measure {
+        let t = Instant::now();
+        let six = RenderOptions {
+            ray: RayKind::Six,
+            ..opts
+        };
+        let (reference, _) = render_grid(&occ, &xf, &cam, &six)?;
+        obj.insert(
+            "differing_pixels".into(),
+            img.differing_hits(&reference).into(),
+        );
+        if let Some(mesh) = &scene.mesh {
+            let m = crate::render::measure::against_mesh(&img, mesh, &cam, scene.frame.voxel_size)?;
+            obj.insert("mesh_depth_mean".into(), m.depth_mean.into());
+            obj.insert("mesh_depth_max".into(), m.depth_max.into());
+            obj.insert("silhouette_disagree".into(), m.silhouette_disagree.into());
+        }
+        obj.insert("measure_ms".into(), ms(t).into());
+    }
+    obj.insert("peak_rss_mib".into(), serde_json::json!(peak_rss_mib()));
+    if args.json {
+        writeln!(out, "{j}")?;
+    } else {
+        writeln!(
+            out,
+            "{}: {}x{} {} rays ({} skip), {} hits, {} voxels visited, {} jumps; load {:.1} ms, prepare {:.1} ms, render {:.1} ms/frame{}",
+            args.output.display(),
+            w,
+            h,
+            RayKind::from(args.ray).name(),
+            if args.no_skip { "no" } else { "with" },
+            stats.hits,
+            stats.voxels_visited,
+            stats.bricks_skipped,
+            load_ms,
+            prepare_ms,
+            render_ms,
+            obj.get("differing_pixels")
+                .map(|d| format!("; {d} pixels differ from the 6-ray image"))
+                .unwrap_or_default()
+        )?;
+    }
+    Ok(())
+}
+
+fn is_gif(p: &Path) -> bool {
+    p.extension()
+        .is_some_and(|e| e.to_string_lossy().eq_ignore_ascii_case("gif"))
+}
+
+/// The PNG path of every frame: `OUT.png` alone, or `OUT_000.png`, … for a
+/// turntable (a `.gif` output is one file).
+fn frame_paths(output: &Path, turntable: Option<u32>) -> Result<Vec<PathBuf>, CliError> {
+    let ext = output
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    match (ext.as_str(), turntable) {
+        ("gif", Some(_)) => Ok(vec![output.to_path_buf()]),
+        ("gif", None) => Err(CliError::bad_input(
+            "a .gif output needs --turntable N (a single frame is written as PNG)",
+        )),
+        ("png", None) => Ok(vec![output.to_path_buf()]),
+        ("png", Some(n)) => {
+            let stem = output.with_extension("");
+            Ok((0..n)
+                .map(|i| PathBuf::from(format!("{}_{i:03}.png", stem.display())))
+                .collect())
+        }
+        _ => Err(CliError::bad_input(format!(
+            "{}: the output must be a .png (or .gif with --turntable)",
+            output.display()
+        ))),
+    }
+}

@@ -1,0 +1,577 @@
+//! The discrete ray caster: one discrete ray per pixel through a sparse voxel
+//! grid ([`render_grid`]), headless, on the CPU.
+//!
+//! Per pixel, the camera's `f64` ray ([`Camera::primary_ray`]) is moved to
+//! grid space, clipped to the grid box padded by one voxel, and quantized
+//! once to the line engine's fixed point ([`crate::fixed`]): every
+//! [`RayKind`] walks that *same* segment, so images differ only by the
+//! algorithms.
+//!
+//! | [`RayKind`] | what | first hit |
+//! |---|---|---|
+//! | `Six` | tripod 6-line | every voxel the continuous ray passes through: the reference |
+//! | `TwentySix` | 26-line | may slip through diagonal gaps |
+//! | `Adaptive` | 26 through unflagged voxels, 6 in flagged ones (Cohen-Or & Kaufman) | equals the 6-ray's, always |
+//! | `AmanatidesWoo` | floating-point 6-connected traversal (as OpenVDB's DDA) | the 6-ray's up to float ties |
+//!
+//! Empty space is skipped with a brick-level proximity cloud (see
+//! [`OccupancyGrid`]) without changing a pixel; [`RenderOptions::skip`]
+//! turns it off. The hit's depth is where the continuous ray enters the hit
+//! voxel's cube (world units along the ray, `+∞` for misses); the face
+//! normal is that entry face's, the smooth normal the gradient of the
+//! occupancy around the hit. Shading: Lambert from a headlight plus ambient.
+
+mod cast;
+pub mod measure;
+mod occupancy;
+
+use std::time::Instant;
+
+use glam::{DMat3, DVec3, IVec3};
+use rayon::prelude::*;
+
+pub use occupancy::OccupancyGrid;
+
+use crate::camera::Camera;
+use crate::error::{Result, VoxkitError};
+use crate::grid::{GridFrame, MemoryLimit};
+use crate::line::Segment;
+
+/// How a pixel's discrete ray steps (`--ray`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RayKind {
+    /// Tripod 6-connected line: visits every voxel the ray passes through.
+    Six,
+    /// 26-connected line: the fewest voxels; may slip through diagonal gaps.
+    TwentySix,
+    /// 26-connected through unflagged voxels, 6-connected in flagged ones.
+    Adaptive,
+    /// Amanatides–Woo in `f64` (the traversal other voxel renderers use).
+    AmanatidesWoo,
+}
+
+impl RayKind {
+    /// Every kind, reference first.
+    pub const ALL: [RayKind; 4] = [
+        RayKind::Six,
+        RayKind::TwentySix,
+        RayKind::Adaptive,
+        RayKind::AmanatidesWoo,
+    ];
+
+    /// The command-line name (`6`, `26`, `adaptive`, `aw`).
+    pub fn name(self) -> &'static str {
+        match self {
+            RayKind::Six => "6",
+            RayKind::TwentySix => "26",
+            RayKind::Adaptive => "adaptive",
+            RayKind::AmanatidesWoo => "aw",
+        }
+    }
+}
+
+/// Which normal shades a hit (`--normals`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum NormalMode {
+    /// The face of the hit voxel the ray enters through.
+    Face,
+    /// The negated gradient of the occupancy (3×3×3 neighbourhood, weights
+    /// `1/|o|²`); the face normal where it vanishes.
+    Smooth,
+}
+
+/// Options of [`render_grid`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderOptions {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Ray kind.
+    pub ray: RayKind,
+    /// Skip empty space (never changes the image).
+    pub skip: bool,
+    /// Normals for shading.
+    pub normals: NormalMode,
+    /// Background colour (linear RGB in `[0, 1]`), for PNG output.
+    pub background: [f32; 3],
+    /// Surface colour where the grid has no colours.
+    pub base_color: [f32; 3],
+    /// Ambient share of the lighting, in `[0, 1]`.
+    pub ambient: f32,
+    /// Cap on the image buffers (checked before allocating).
+    pub limit: MemoryLimit,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            width: 1024,
+            height: 1024,
+            ray: RayKind::Adaptive,
+            skip: true,
+            normals: NormalMode::Face,
+            background: [0.07, 0.08, 0.1],
+            base_color: [0.85, 0.8, 0.72],
+            ambient: 0.25,
+            limit: MemoryLimit::DEFAULT,
+        }
+    }
+}
+
+/// The affine map between world space and a grid's space (voxel centres at
+/// integers): `world = origin + axes · g`. Anisotropic and sheared voxels
+/// are rays transformed, never a resampled volume.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridTransform {
+    /// World position of the centre of voxel `(0, 0, 0)`.
+    pub origin: DVec3,
+    /// Column `i`: the world displacement of one voxel along grid axis `i`.
+    pub axes: DMat3,
+    inv: DMat3,
+}
+
+impl GridTransform {
+    /// The transform with the given origin (centre of voxel 0) and axes;
+    /// `Invalid` if they are not finite or the axes are (nearly) singular.
+    pub fn new(origin: DVec3, axes: DMat3) -> Result<Self> {
+        let norms = [axes.x_axis, axes.y_axis, axes.z_axis].map(|c| c.length());
+        let det = axes.determinant();
+        if !(origin.is_finite() && axes.is_finite())
+            || norms.iter().any(|&n| n <= 0.0)
+            || det.abs() < 1e-9 * norms.iter().product::<f64>()
+        {
+            return Err(VoxkitError::invalid(format!(
+                "grid transform: origin {origin} and axes {axes} are not a usable frame"
+            )));
+        }
+        Ok(GridTransform {
+            origin,
+            axes,
+            inv: axes.inverse(),
+        })
+    }
+
+    /// The transform of a cubic-voxel [`GridFrame`] (origin at the min corner
+    /// of voxel 0).
+    pub fn from_frame(frame: &GridFrame) -> Result<Self> {
+        let h = frame.voxel_size;
+        Self::new(
+            frame.origin + DVec3::splat(h / 2.0),
+            DMat3::from_diagonal(DVec3::splat(h)),
+        )
+    }
+
+    /// World point → grid point.
+    pub fn world_to_grid(&self, w: DVec3) -> DVec3 {
+        self.inv * (w - self.origin)
+    }
+
+    /// Grid point → world point.
+    pub fn grid_to_world(&self, g: DVec3) -> DVec3 {
+        self.origin + self.axes * g
+    }
+
+    /// World-space box of a grid of `dims` (the voxel cubes' hull).
+    pub fn world_bounds(&self, lo: DVec3, hi: DVec3) -> (DVec3, DVec3) {
+        let mut a = DVec3::INFINITY;
+        let mut b = DVec3::NEG_INFINITY;
+        for i in 0..8 {
+            let g = DVec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            );
+            let w = self.grid_to_world(g);
+            a = a.min(w);
+            b = b.max(w);
+        }
+        (a, b)
+    }
+}
+
+/// A rendered image: colour, coverage, depth and the hit voxel per pixel,
+/// row-major with row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderImage {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Shaded colour (linear RGB in `[0, 1]`) and coverage `A` (1 hit, 0 miss).
+    pub color: Vec<[f32; 4]>,
+    /// Distance along the ray in world units to the hit, `+∞` for misses.
+    pub depth: Vec<f32>,
+    /// The hit voxel per pixel (`None`: miss).
+    pub hit: Vec<Option<IVec3>>,
+}
+
+impl RenderImage {
+    /// RGBA8 composited over `background` (for PNG and GIF).
+    pub fn to_rgba8(&self, background: [f32; 3]) -> Vec<u8> {
+        let q = |x: f32| (x.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+        self.color
+            .iter()
+            .flat_map(|c| {
+                let a = c[3];
+                let mix = |k: usize| q(c[k] * a + background[k] * (1.0 - a));
+                [mix(0), mix(1), mix(2), 255]
+            })
+            .collect()
+    }
+
+    /// Pixels whose first hit (voxel, hence depth) differs from `other`'s.
+    pub fn differing_hits(&self, other: &RenderImage) -> u64 {
+        self.hit
+            .iter()
+            .zip(&other.hit)
+            .filter(|(a, b)| a != b)
+            .count() as u64
+    }
+}
+
+/// Counters and timings of a render.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RenderStats {
+    /// Rays cast (pixels).
+    pub rays: u64,
+    /// Rays that hit.
+    pub hits: u64,
+    /// Voxels whose flags the rays read.
+    pub voxels_visited: u64,
+    /// Jumps over empty boxes of bricks (each leaves at least one empty brick).
+    pub bricks_skipped: u64,
+    /// Wall time of the frame.
+    pub render_ms: f64,
+}
+
+/// How far inside the clip box a pixel's segment starts and ends, in voxels:
+/// far above `f64` rounding and far below the fixed point's 2^-20, so both
+/// end points lie in voxels of the box and the walks need no discrete clip.
+const CLIP_INSET: f64 = 1.0 / 4096.0;
+
+/// A pixel's ray in grid space: `g(t) = o + t·d` (`t` in world units).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct GridRay {
+    pub o: DVec3,
+    pub d: DVec3,
+}
+
+impl GridRay {
+    /// The `t` interval (from 0 on) inside the box `[lo, hi]`, if any.
+    #[inline]
+    fn clip(&self, lo: DVec3, hi: DVec3) -> Option<(f64, f64)> {
+        let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+        for k in 0..3 {
+            let (o, d) = (self.o[k], self.d[k]);
+            if d == 0.0 {
+                if o < lo[k] || o > hi[k] {
+                    return None;
+                }
+                continue;
+            }
+            let (a, b) = ((lo[k] - o) / d, (hi[k] - o) / d);
+            t0 = t0.max(a.min(b));
+            t1 = t1.min(a.max(b));
+        }
+        (t0 < t1).then_some((t0, t1))
+    }
+
+    /// Entry distance into voxel `v`'s cube and the axis of the entry face
+    /// (`None`: the ray starts inside the cube).
+    pub(crate) fn entry(&self, v: IVec3) -> (f64, Option<usize>) {
+        let mut t = f64::NEG_INFINITY;
+        let mut axis = None;
+        for k in 0..3 {
+            if self.d[k] == 0.0 {
+                continue;
+            }
+            let c = v[k] as f64;
+            let (a, b) = (
+                (c - 0.5 - self.o[k]) / self.d[k],
+                (c + 0.5 - self.o[k]) / self.d[k],
+            );
+            let near = a.min(b);
+            if near > t {
+                t = near;
+                axis = Some(k);
+            }
+        }
+        if t <= 0.0 { (0.0, None) } else { (t, axis) }
+    }
+}
+
+/// Fixed point of a grid coordinate known to be far inside the supported
+/// range: round half away from zero as [`crate::fixed::to_fixed`] does, by a
+/// truncating conversion (exact: `|x·2^20| < 2^51`), without a libm call.
+#[inline(always)]
+fn to_fixed_in_range(x: f64) -> i64 {
+    let v = x * crate::fixed::ONE as f64;
+    (v + 0.5f64.copysign(v)) as i64
+}
+
+/// Sets up pixel rays for a camera and grid once per frame: the camera basis
+/// moved to grid space, and the clip box.
+pub(crate) struct RaySetup {
+    xf: GridTransform,
+    /// Grid-space origin of perspective rays / of the image-plane centre.
+    o: DVec3,
+    /// Grid-space images of the world forward, right·tan_h and up·tan_v
+    /// (perspective) or right·half_w and up·half_h (orthographic).
+    f: DVec3,
+    r: DVec3,
+    u: DVec3,
+    ortho: bool,
+    lo: DVec3,
+    hi: DVec3,
+    width: u32,
+    height: u32,
+}
+
+impl RaySetup {
+    /// `bounds`: the inclusive voxel box that can hold anything (the occupied
+    /// voxels' bounds; rays are clipped to it), `None` for an empty scene.
+    pub(crate) fn new(
+        camera: &Camera,
+        xf: &GridTransform,
+        bounds: Option<(IVec3, IVec3)>,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        let (r, u, f) = camera.basis();
+        let aspect = width as f64 / height as f64;
+        let (ortho, sr, su) = match camera.projection {
+            crate::camera::Projection::Perspective { fov_y_deg } => {
+                let t = (fov_y_deg.to_radians() * 0.5).tan();
+                (false, t * aspect, t)
+            }
+            crate::camera::Projection::Orthographic { height } => {
+                (true, height * 0.5 * aspect, height * 0.5)
+            }
+        };
+        let (lo, hi) = match bounds {
+            Some((a, b)) => (
+                a.as_dvec3() - 0.5 + CLIP_INSET,
+                b.as_dvec3() + 0.5 - CLIP_INSET,
+            ),
+            None => (DVec3::ONE, DVec3::ZERO),
+        };
+        RaySetup {
+            xf: *xf,
+            o: xf.world_to_grid(camera.eye),
+            f: xf.inv * f,
+            r: xf.inv * (r * sr),
+            u: xf.inv * (u * su),
+            ortho,
+            lo,
+            hi,
+            width,
+            height,
+        }
+    }
+
+    /// The grid-space ray of pixel `(x, y)` (unit world speed) and its
+    /// segment inside the clip box (`None`: the ray misses it).
+    #[inline]
+    pub(crate) fn pixel(&self, x: u32, y: u32) -> (GridRay, Option<Segment>) {
+        let nx = 2.0 * (x as f64 + 0.5) / self.width as f64 - 1.0;
+        let ny = 1.0 - 2.0 * (y as f64 + 0.5) / self.height as f64;
+        let ray = if self.ortho {
+            GridRay {
+                o: self.o + self.r * nx + self.u * ny,
+                d: self.f,
+            }
+        } else {
+            // World direction f + r·a + u·b has length sqrt(1 + a² + b²)
+            // (orthonormal basis): divide it out for unit world speed.
+            let d = self.f + self.r * nx + self.u * ny;
+            let world_len = self.xf.axes.mul_vec3(d).length();
+            GridRay {
+                o: self.o,
+                d: d / world_len,
+            }
+        };
+        let seg = ray.clip(self.lo, self.hi).and_then(|(t0, t1)| {
+            let q = |t: f64| {
+                let p = (ray.o + ray.d * t).clamp(self.lo, self.hi);
+                [p.x, p.y, p.z].map(to_fixed_in_range)
+            };
+            Segment::from_fixed(q(t0), q(t1)).ok()
+        });
+        (ray, seg)
+    }
+
+    /// World normal of grid-space direction `n` (a normal transforms with
+    /// the inverse transpose).
+    fn world_normal(&self, n: DVec3) -> DVec3 {
+        (self.xf.inv.transpose() * n).normalize_or_zero()
+    }
+}
+
+/// Checks a frame's size against `limit` (colour, depth and hit buffers).
+pub(crate) fn check_image(width: u32, height: u32, limit: MemoryLimit) -> Result<()> {
+    if width == 0 || height == 0 {
+        return Err(VoxkitError::invalid(format!(
+            "image size {width}x{height}: both sides must be positive"
+        )));
+    }
+    limit.check(
+        "render image buffers",
+        width as u128 * height as u128,
+        16 + 4 + 16,
+    )
+}
+
+/// One image row: colours, depths, hits, counters, hit count.
+type RowResult = (
+    Vec<[f32; 4]>,
+    Vec<f32>,
+    Vec<Option<IVec3>>,
+    cast::CastCounters,
+    u64,
+);
+
+/// Renders `occ` (placed in the world by `xf`) with `camera`.
+///
+/// ```
+/// use glam::{DVec3, IVec3};
+/// use voxkit::camera::Camera;
+/// use voxkit::grid::{BrickGrid, GridFrame, MemoryLimit};
+/// use voxkit::render::{render_grid, GridTransform, OccupancyGrid, RayKind, RenderOptions};
+/// let grid: BrickGrid = [IVec3::new(4, 4, 4)].into_iter().collect();
+/// let occ = OccupancyGrid::new(&grid, [9, 9, 9], MemoryLimit::DEFAULT).unwrap();
+/// let xf = GridTransform::from_frame(&GridFrame::new(DVec3::ZERO, 1.0, [9, 9, 9])).unwrap();
+/// let cam = Camera::perspective(DVec3::new(4.5, 4.5, 30.0), DVec3::splat(4.5), DVec3::Y, 20.0);
+/// let opts = RenderOptions { width: 32, height: 32, ..RenderOptions::default() };
+/// let (img, stats) = render_grid(&occ, &xf, &cam, &opts).unwrap();
+/// assert_eq!(img.hit[16 * 32 + 16], Some(IVec3::new(4, 4, 4)));
+/// assert!(img.depth[16 * 32 + 16] > 24.9 && img.depth[16 * 32 + 16] < 25.1);
+/// // The adaptive ray sees exactly what the 6-ray sees.
+/// let six = RenderOptions { ray: RayKind::Six, ..opts };
+/// assert_eq!(render_grid(&occ, &xf, &cam, &six).unwrap().0.hit, img.hit);
+/// ```
+pub fn render_grid(
+    occ: &OccupancyGrid,
+    xf: &GridTransform,
+    camera: &Camera,
+    opts: &RenderOptions,
+) -> Result<(RenderImage, RenderStats)> {
+    camera_check(camera)?;
+    let (w, h) = (opts.width, opts.height);
+    check_image(w, h, opts.limit)?;
+    let start = Instant::now();
+    let setup = RaySetup::new(camera, xf, occ.bounds(), w, h);
+    let rows: Vec<RowResult> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut color = Vec::with_capacity(w as usize);
+            let mut depth = Vec::with_capacity(w as usize);
+            let mut hit = Vec::with_capacity(w as usize);
+            let mut n = cast::CastCounters::default();
+            let mut hits = 0;
+            for x in 0..w {
+                let (ray, seg) = setup.pixel(x, y);
+                let v = seg.and_then(|s| cast::first_hit(occ, &s, opts.ray, opts.skip, &mut n));
+                match v {
+                    Some(v) => {
+                        hits += 1;
+                        let (t, axis) = ray.entry(v);
+                        color.push(shade(occ, &setup, &ray, v, axis, opts));
+                        depth.push(t as f32);
+                    }
+                    None => {
+                        color.push([0.0; 4]);
+                        depth.push(f32::INFINITY);
+                    }
+                }
+                hit.push(v);
+            }
+            (color, depth, hit, n, hits)
+        })
+        .collect();
+    let mut img = RenderImage {
+        width: w,
+        height: h,
+        color: Vec::with_capacity((w * h) as usize),
+        depth: Vec::with_capacity((w * h) as usize),
+        hit: Vec::with_capacity((w * h) as usize),
+    };
+    let mut stats = RenderStats {
+        rays: w as u64 * h as u64,
+        ..RenderStats::default()
+    };
+    for (c, d, v, n, hits) in rows {
+        img.color.extend(c);
+        img.depth.extend(d);
+        img.hit.extend(v);
+        stats.voxels_visited += n.visited;
+        stats.bricks_skipped += n.jumps;
+        stats.hits += hits;
+    }
+    stats.render_ms = start.elapsed().as_secs_f64() * 1e3;
+    Ok((img, stats))
+}
+
+/// The first occupied voxel along a grid-space segment for a ray kind (the
+/// per-pixel kernel of [`render_grid`]); the segment must lie inside the
+/// grid (both end voxels in `0..dims`), else `None`.
+pub fn first_hit(occ: &OccupancyGrid, seg: &Segment, kind: RayKind, skip: bool) -> Option<IVec3> {
+    if !(occ.in_grid(seg.start_voxel()) && occ.in_grid(seg.end_voxel())) {
+        return None;
+    }
+    cast::first_hit(occ, seg, kind, skip, &mut cast::CastCounters::default())
+}
+
+/// The camera checks a render needs (the rasterizer's clip distances do not
+/// matter to rays).
+pub(crate) fn camera_check(camera: &Camera) -> Result<()> {
+    let mut c = *camera;
+    c.near = 1.0;
+    c.far = 2.0;
+    c.validate()
+}
+
+/// Lambert from a headlight plus ambient, on the hit voxel's colour.
+fn shade(
+    occ: &OccupancyGrid,
+    setup: &RaySetup,
+    ray: &GridRay,
+    v: IVec3,
+    axis: Option<usize>,
+    opts: &RenderOptions,
+) -> [f32; 4] {
+    let face = match axis {
+        Some(k) => {
+            let mut n = DVec3::ZERO;
+            n[k] = -ray.d[k].signum();
+            n
+        }
+        None => -ray.d,
+    };
+    let n_grid = match opts.normals {
+        NormalMode::Face => face,
+        NormalMode::Smooth => {
+            let mut g = DVec3::ZERO;
+            for dz in -1..=1 {
+                for dy in -1..=1 {
+                    for dx in -1..=1 {
+                        let o = IVec3::new(dx, dy, dz);
+                        if o != IVec3::ZERO && occ.is_occupied(v + o) {
+                            g -= o.as_dvec3() / o.length_squared() as f64;
+                        }
+                    }
+                }
+            }
+            if g.length_squared() > 1e-12 { g } else { face }
+        }
+    };
+    let n = setup.world_normal(n_grid);
+    let view = (setup.xf.axes * ray.d).normalize_or_zero();
+    let lambert = n.dot(-view).abs() as f32;
+    let base = occ.color(v).map_or(opts.base_color, |c| {
+        [c[0], c[1], c[2]].map(|x| x as f32 / 255.0)
+    });
+    let a = opts.ambient.clamp(0.0, 1.0);
+    let l = a + (1.0 - a) * lambert;
+    [base[0] * l, base[1] * l, base[2] * l, 1.0]
+}

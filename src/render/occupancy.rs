@@ -1,0 +1,392 @@
+//! The ray caster's view of a sparse voxel grid: occupancy and proximity
+//! flags in 8³ bricks, and a brick-level proximity cloud for skipping.
+//!
+//! Storage grows with the occupied surface, not with the bounding box:
+//! - a dense table of one `u32` slot per 8³ brick (a 2048³ grid has 256³
+//!   bricks: 64 MiB), slot 0 being the shared all-empty brick;
+//! - per stored brick 128 bytes: the occupancy bitmask and the proximity
+//!   bitmask (occupancy dilated by one voxel, Chebyshev: the adaptive ray's
+//!   flags, Cohen-Or & Kaufman's "vicinity of an object"), both in the
+//!   [`BrickGrid`] layout (word `lz`, bit `lx + 8 ly`). Bricks are stored
+//!   where either mask is non-empty: the occupied bricks and the neighbours
+//!   the dilation spills into;
+//! - a proximity cloud (Cohen & Sheffer 1994) at brick granularity: per brick
+//!   the Chebyshev distance, in bricks, to the nearest brick holding an
+//!   occupied voxel (0 for those; saturated at 255), one byte per brick. A
+//!   ray in a brick at distance `k ≥ 1` can jump the whole box of bricks
+//!   within `k − 1` of it: nothing there is occupied, and shrunk by one voxel
+//!   nothing is flagged either.
+
+use glam::IVec3;
+
+use crate::error::Result;
+use crate::grid::brick::BrickMask;
+use crate::grid::{BrickGrid, MemoryLimit, Voxel};
+
+/// `x` bits of column `lx = 0` / `lx = 7` in a brick word (bit `lx + 8 ly`).
+const X0: u64 = 0x0101_0101_0101_0101;
+const X7: u64 = 0x8080_8080_8080_8080;
+
+/// Palette indices per stored brick (`lx + 8 ly + 64 lz`) and the palette.
+pub(crate) type BrickColors = (Vec<[u8; 512]>, Box<[[u8; 4]; 256]>);
+
+/// One stored brick: occupancy and proximity flags.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct BrickFlags {
+    pub occ: BrickMask,
+    pub prox: BrickMask,
+}
+
+/// Occupancy, proximity flags, colours and the brick proximity cloud of a
+/// voxel grid, for rendering (see the [module docs](self)).
+#[derive(Clone, Debug)]
+pub struct OccupancyGrid {
+    pub(crate) dims: [i32; 3],
+    /// Bricks per axis (`ceil(dims / 8)`).
+    pub(crate) bdims: [i32; 3],
+    pub(crate) slot: Vec<u32>,
+    pub(crate) bricks: Vec<BrickFlags>,
+    /// Per brick: Chebyshev distance in bricks to the nearest occupied one.
+    pub(crate) dist: Vec<u8>,
+    /// Per stored brick, per voxel (`lx + 8 ly + 64 lz`): palette index.
+    pub(crate) colors: Option<BrickColors>,
+    /// Occupied voxels.
+    pub(crate) voxels: u64,
+    /// Inclusive bounds of the occupied voxels (empty grid: `None`).
+    pub(crate) bounds: Option<(Voxel, Voxel)>,
+}
+
+impl OccupancyGrid {
+    /// Builds the render structure of `grid` (every voxel inside `dims`).
+    /// `limit` caps the dense brick tables (checked before allocating).
+    ///
+    /// ```
+    /// use glam::IVec3;
+    /// use voxkit::grid::{BrickGrid, MemoryLimit};
+    /// use voxkit::render::OccupancyGrid;
+    /// let g: BrickGrid = [IVec3::new(3, 4, 5)].into_iter().collect();
+    /// let occ = OccupancyGrid::new(&g, [40, 40, 40], MemoryLimit::DEFAULT).unwrap();
+    /// assert!(occ.is_occupied(IVec3::new(3, 4, 5)));
+    /// assert!(occ.is_flagged(IVec3::new(4, 5, 6)));   // a diagonal neighbour
+    /// assert!(!occ.is_flagged(IVec3::new(5, 4, 5))); // two voxels away
+    /// assert_eq!(occ.brick_distance(IVec3::new(35, 0, 0)), 4);
+    /// ```
+    pub fn new(grid: &BrickGrid, dims: [usize; 3], limit: MemoryLimit) -> Result<Self> {
+        grid.check_inside(dims)?;
+        let bdims = dims.map(|d| d.div_ceil(8) as i32);
+        let cells: u128 = bdims.iter().map(|&b| b as u128).product();
+        limit.check("render brick tables", cells, 5)?;
+        let n = cells as usize;
+        let bindex = |b: IVec3| (b.x + bdims[0] * (b.y + bdims[1] * b.z)) as usize;
+        let inside = |b: IVec3| (0..3).all(|k| b[k] >= 0 && b[k] < bdims[k]);
+
+        // Occupancy masks in a dense slot table first.
+        let mut slot = vec![0u32; n];
+        let mut bricks = vec![BrickFlags::default()];
+        for (b, m) in grid.bricks() {
+            if m.iter().all(|&w| w == 0) {
+                continue;
+            }
+            slot[bindex(b)] = bricks.len() as u32;
+            bricks.push(BrickFlags {
+                occ: *m,
+                prox: [0; 8],
+            });
+        }
+        let occupied_bricks = bricks.len() - 1;
+        limit.check(
+            "render bricks",
+            (occupied_bricks as u128) * 27 + cells,
+            std::mem::size_of::<BrickFlags>() as u128,
+        )?;
+        // Targets of the dilation: the occupied bricks and their neighbours.
+        let mut targets: Vec<IVec3> = Vec::with_capacity(occupied_bricks * 4);
+        let occ_keys: Vec<IVec3> = grid
+            .bricks()
+            .filter(|(_, m)| m.iter().any(|&w| w != 0))
+            .map(|(b, _)| b)
+            .collect();
+        let mut seen = vec![false; n];
+        for &b in &occ_keys {
+            for dz in -1..=1 {
+                for dy in -1..=1 {
+                    for dx in -1..=1 {
+                        let t = b + IVec3::new(dx, dy, dz);
+                        if inside(t) && !std::mem::replace(&mut seen[bindex(t)], true) {
+                            targets.push(t);
+                        }
+                    }
+                }
+            }
+        }
+        drop(seen);
+        let occ_at = |b: IVec3| -> BrickMask {
+            if inside(b) {
+                bricks[slot[bindex(b)] as usize].occ
+            } else {
+                [0; 8]
+            }
+        };
+        let prox: Vec<(IVec3, BrickMask)> = targets
+            .iter()
+            .map(|&t| (t, dilate(t, &occ_at)))
+            .filter(|(_, p)| p.iter().any(|&w| w != 0))
+            .collect();
+        for (t, p) in prox {
+            let i = bindex(t);
+            if slot[i] == 0 {
+                slot[i] = bricks.len() as u32;
+                bricks.push(BrickFlags {
+                    occ: [0; 8],
+                    prox: p,
+                });
+            } else {
+                bricks[slot[i] as usize].prox = p;
+            }
+        }
+        let dist = chessboard_distance(bdims, |i| {
+            let s = slot[i] as usize;
+            s != 0 && bricks[s].occ.iter().any(|&w| w != 0)
+        });
+        Ok(OccupancyGrid {
+            dims: dims.map(|d| d as i32),
+            bdims,
+            slot,
+            bricks,
+            dist,
+            colors: None,
+            voxels: grid.count(),
+            bounds: grid.bounds(),
+        })
+    }
+
+    /// Attaches colours: a palette index per occupied voxel and the RGBA
+    /// palette (MagicaVoxel files). Voxels without an entry get index 0.
+    pub fn set_colors(&mut self, voxels: &[(Voxel, u8)], palette: [[u8; 4]; 256]) {
+        let mut per_brick = vec![[0u8; 512]; self.bricks.len()];
+        for &(v, c) in voxels {
+            if !self.in_grid(v) {
+                continue;
+            }
+            let s = self.slot_of(v) as usize;
+            if s != 0 {
+                per_brick[s][local_index(v)] = c;
+            }
+        }
+        self.colors = Some((per_brick, Box::new(palette)));
+    }
+
+    /// Grid extents in voxels.
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims.map(|d| d as usize)
+    }
+
+    /// Occupied voxels.
+    pub fn voxel_count(&self) -> u64 {
+        self.voxels
+    }
+
+    /// Inclusive bounds of the occupied voxels.
+    pub fn bounds(&self) -> Option<(Voxel, Voxel)> {
+        self.bounds
+    }
+
+    /// Bytes held by the render structures (slot table, stored bricks,
+    /// proximity cloud, colours).
+    pub fn heap_bytes(&self) -> usize {
+        self.slot.capacity() * 4
+            + self.bricks.capacity() * std::mem::size_of::<BrickFlags>()
+            + self.dist.capacity()
+            + self
+                .colors
+                .as_ref()
+                .map_or(0, |(c, _)| c.capacity() * 512 + 1024)
+    }
+
+    /// Stored bricks (occupied or flagged).
+    pub fn stored_bricks(&self) -> usize {
+        self.bricks.len() - 1
+    }
+
+    #[inline(always)]
+    pub(crate) fn in_grid(&self, v: Voxel) -> bool {
+        (0..3).all(|k| v[k] >= 0 && v[k] < self.dims[k])
+    }
+
+    #[inline(always)]
+    pub(crate) fn brick_index(&self, b: IVec3) -> usize {
+        (b.x + self.bdims[0] * (b.y + self.bdims[1] * b.z)) as usize
+    }
+
+    #[inline(always)]
+    fn slot_of(&self, v: Voxel) -> u32 {
+        self.slot[self.brick_index(v >> 3)]
+    }
+
+    /// Whether voxel `v` (any coordinates) is occupied.
+    pub fn is_occupied(&self, v: Voxel) -> bool {
+        self.in_grid(v) && {
+            let (w, bit) = word_bit(v);
+            self.bricks[self.slot_of(v) as usize].occ[w] >> bit & 1 == 1
+        }
+    }
+
+    /// Whether voxel `v` carries a proximity flag (within Chebyshev
+    /// distance 1 of an occupied voxel).
+    pub fn is_flagged(&self, v: Voxel) -> bool {
+        self.in_grid(v) && {
+            let (w, bit) = word_bit(v);
+            self.bricks[self.slot_of(v) as usize].prox[w] >> bit & 1 == 1
+        }
+    }
+
+    /// The proximity cloud's value at the brick of voxel `v`.
+    pub fn brick_distance(&self, v: Voxel) -> u8 {
+        self.dist[self.brick_index(v >> 3)]
+    }
+
+    /// RGBA of occupied voxel `v`: its palette colour, or `None` without
+    /// colours.
+    pub fn color(&self, v: Voxel) -> Option<[u8; 4]> {
+        let (per_brick, palette) = self.colors.as_ref()?;
+        let s = self.slot_of(v) as usize;
+        Some(palette[per_brick[s][local_index(v)] as usize])
+    }
+}
+
+/// Word and bit of voxel `v` in its brick's masks.
+#[inline(always)]
+pub(crate) fn word_bit(v: Voxel) -> (usize, u32) {
+    ((v.z & 7) as usize, ((v.x & 7) + 8 * (v.y & 7)) as u32)
+}
+
+#[inline(always)]
+fn local_index(v: Voxel) -> usize {
+    ((v.x & 7) + 8 * (v.y & 7) + 64 * (v.z & 7)) as usize
+}
+
+/// The occupancy of the 3×3×3 bricks around `t`, dilated by one voxel
+/// (Chebyshev) and restricted to `t`: separable, x then y then z, each pass
+/// pulling the facing column, row or layer of the neighbour bricks.
+fn dilate(t: IVec3, occ_at: &impl Fn(IVec3) -> BrickMask) -> BrickMask {
+    let dx = |b: IVec3| -> BrickMask {
+        let (l, m, r) = (occ_at(b - IVec3::X), occ_at(b), occ_at(b + IVec3::X));
+        std::array::from_fn(|z| {
+            let w = m[z];
+            w | ((w << 1) & !X0) | ((w >> 1) & !X7) | ((l[z] & X7) >> 7) | ((r[z] & X0) << 7)
+        })
+    };
+    let dy = |b: IVec3| -> BrickMask {
+        let (lo, m, hi) = (dx(b - IVec3::Y), dx(b), dx(b + IVec3::Y));
+        std::array::from_fn(|z| {
+            let w = m[z];
+            w | (w << 8) | (w >> 8) | (lo[z] >> 56) | (hi[z] << 56)
+        })
+    };
+    let (below, m, above) = (dy(t - IVec3::Z), dy(t), dy(t + IVec3::Z));
+    std::array::from_fn(|z| {
+        let prev = if z == 0 { below[7] } else { m[z - 1] };
+        let next = if z == 7 { above[0] } else { m[z + 1] };
+        m[z] | prev | next
+    })
+}
+
+/// Exact Chebyshev (chessboard) distance, in cells, from every cell of a
+/// `dims` grid to the nearest cell where `seed(index)` holds, saturated at
+/// 255: the two-pass raster chamfer with the 26-neighbourhood and unit
+/// weights, which is exact for the chessboard metric (every shortest
+/// chessboard path is monotone, so the forward pass sees its first half and
+/// the backward pass the rest; Rosenfeld & Pfaltz 1966).
+pub(crate) fn chessboard_distance(dims: [i32; 3], seed: impl Fn(usize) -> bool) -> Vec<u8> {
+    let [nx, ny, nz] = dims;
+    let n = (nx * ny * nz) as usize;
+    let mut d: Vec<u8> = (0..n).map(|i| if seed(i) { 0 } else { 255 }).collect();
+    let idx = |x: i32, y: i32, z: i32| (x + nx * (y + ny * z)) as usize;
+    // The 13 neighbours that precede a cell in raster order (z, y, x).
+    let mut before = Vec::new();
+    for dz in -1..=1 {
+        for dy in -1..=1 {
+            for dx in -1..=1 {
+                if (dz, dy, dx) < (0, 0, 0) {
+                    before.push(IVec3::new(dx, dy, dz));
+                }
+            }
+        }
+    }
+    let pass =
+        |d: &mut Vec<u8>, offsets: &[IVec3], order: &mut dyn Iterator<Item = (i32, i32, i32)>| {
+            for (x, y, z) in order {
+                let i = idx(x, y, z);
+                let mut best = d[i];
+                if best == 0 {
+                    continue;
+                }
+                for o in offsets {
+                    let (qx, qy, qz) = (x + o.x, y + o.y, z + o.z);
+                    if qx >= 0 && qy >= 0 && qz >= 0 && qx < nx && qy < ny && qz < nz {
+                        best = best.min(d[idx(qx, qy, qz)].saturating_add(1));
+                    }
+                }
+                d[i] = best;
+            }
+        };
+    let forward = (0..nz).flat_map(|z| (0..ny).flat_map(move |y| (0..nx).map(move |x| (x, y, z))));
+    pass(&mut d, &before, &mut forward.into_iter());
+    let after: Vec<IVec3> = before.iter().map(|o| -*o).collect();
+    let backward = (0..nz).rev().flat_map(|z| {
+        (0..ny)
+            .rev()
+            .flat_map(move |y| (0..nx).rev().map(move |x| (x, y, z)))
+    });
+    pass(&mut d, &after, &mut backward.into_iter());
+    d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// Proximity flags equal a brute-force one-voxel dilation, brick
+    /// borders included; the proximity cloud equals brute-force Chebyshev
+    /// distances between bricks.
+    #[test]
+    fn flags_and_cloud_match_brute_force() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        for dims in [[1, 1, 1], [9, 17, 8], [30, 21, 25]] {
+            let mut g = BrickGrid::new();
+            let mut set = Vec::new();
+            for _ in 0..(dims.iter().product::<usize>() / 300).max(1) {
+                let v = IVec3::new(
+                    rng.random_range(0..dims[0] as i32),
+                    rng.random_range(0..dims[1] as i32),
+                    rng.random_range(0..dims[2] as i32),
+                );
+                g.insert(v);
+                set.push(v);
+            }
+            let occ = OccupancyGrid::new(&g, dims, MemoryLimit::DEFAULT).unwrap();
+            for z in -1..dims[2] as i32 + 1 {
+                for y in -1..dims[1] as i32 + 1 {
+                    for x in -1..dims[0] as i32 + 1 {
+                        let v = IVec3::new(x, y, z);
+                        let near = set.iter().any(|s| (*s - v).abs().max_element() <= 1);
+                        let inside = occ.in_grid(v);
+                        assert_eq!(occ.is_flagged(v), near && inside, "{v} in {dims:?}");
+                        assert_eq!(occ.is_occupied(v), set.contains(&v) && inside);
+                        if inside {
+                            let b: IVec3 = v >> 3i32;
+                            let want = set
+                                .iter()
+                                .map(|s: &IVec3| ((*s >> 3i32) - b).abs().max_element())
+                                .min()
+                                .unwrap()
+                                .min(255) as u8;
+                            assert_eq!(occ.brick_distance(v), want, "{v}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
