@@ -18,11 +18,13 @@ mod bits;
 pub mod brick;
 mod dense;
 mod frame;
+pub mod volume;
 
 pub use bits::BitGrid;
 pub use brick::BrickGrid;
 pub use dense::DenseGrid;
 pub use frame::GridFrame;
+pub use volume::{ScalarType, ScalarVolume, VolumeData, VolumeFrame};
 
 use crate::error::{Result, VoxkitError};
 

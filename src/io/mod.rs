@@ -6,6 +6,7 @@ pub mod binvox;
 pub mod image;
 pub mod npy;
 pub mod nrrd;
+pub mod volume;
 pub mod vox;
 mod voxels;
 

@@ -20,6 +20,10 @@
 //! (`voxkit_origin`, `voxkit_voxel_size`, `voxkit_dims`), which other readers
 //! ignore. A file without them reads with origin at the minimum corner of the
 //! models' placed boxes (in voxel units), voxel size 1, dims the boxes' extent.
+//!
+//! Colours: [`read_colored`] also returns each placed voxel's colour index
+//! and the palette (the file's `RGBA` chunk, else MagicaVoxel's default),
+//! so a renderer can draw a scene in its own colours.
 
 use std::collections::HashMap;
 use std::io::Write;

@@ -16,4 +16,5 @@ mod strategies;
 mod topology;
 mod triangle_index;
 mod tunnels;
+mod volume_io;
 mod voxelize;

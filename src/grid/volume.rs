@@ -1,0 +1,770 @@
+//! Scalar volumes: a dense grid of samples in the type its file stored them
+//! in (a 1024³ `uint8` CT stays 1 GiB, not 4 GiB of `f32`), placed in world
+//! space by a possibly anisotropic, possibly sheared [`VolumeFrame`].
+//!
+//! Samples are x fastest, `index = x + nx * (y + ny * z)`, like every grid of
+//! the crate; sample `(i, j, k)` sits at the centre of voxel `(i, j, k)`,
+//! i.e. on the integer point `(i, j, k)` of grid space.
+
+use glam::{DMat3, DVec3, IVec3};
+
+use super::{BrickGrid, DenseGrid, Dims, GridFrame, MemoryLimit, cell_count};
+use crate::error::{Result, VoxkitError};
+
+/// The element type a volume file stores its samples in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ScalarType {
+    /// Signed 8-bit integer.
+    I8,
+    /// Unsigned 8-bit integer.
+    U8,
+    /// Signed 16-bit integer.
+    I16,
+    /// Unsigned 16-bit integer.
+    U16,
+    /// Signed 32-bit integer.
+    I32,
+    /// Unsigned 32-bit integer.
+    U32,
+    /// IEEE 754 single precision.
+    F32,
+    /// IEEE 754 double precision.
+    F64,
+}
+
+impl ScalarType {
+    /// The type's name as NRRD and NumPy users know it: `"int8"`, `"uint8"`,
+    /// `"int16"`, `"uint16"`, `"int32"`, `"uint32"`, `"float32"`, `"float64"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ScalarType::I8 => "int8",
+            ScalarType::U8 => "uint8",
+            ScalarType::I16 => "int16",
+            ScalarType::U16 => "uint16",
+            ScalarType::I32 => "int32",
+            ScalarType::U32 => "uint32",
+            ScalarType::F32 => "float32",
+            ScalarType::F64 => "float64",
+        }
+    }
+
+    /// Bytes per sample.
+    pub fn bytes(self) -> usize {
+        match self {
+            ScalarType::I8 | ScalarType::U8 => 1,
+            ScalarType::I16 | ScalarType::U16 => 2,
+            ScalarType::I32 | ScalarType::U32 | ScalarType::F32 => 4,
+            ScalarType::F64 => 8,
+        }
+    }
+}
+
+impl std::fmt::Display for ScalarType {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The samples of a volume, x fastest, in the file's own element type.
+#[derive(Clone, Debug, PartialEq)]
+pub enum VolumeData {
+    /// `int8` samples.
+    I8(Vec<i8>),
+    /// `uint8` samples (also NumPy `bool` arrays, as 0/1).
+    U8(Vec<u8>),
+    /// `int16` samples.
+    I16(Vec<i16>),
+    /// `uint16` samples.
+    U16(Vec<u16>),
+    /// `int32` samples.
+    I32(Vec<i32>),
+    /// `uint32` samples.
+    U32(Vec<u32>),
+    /// `float32` samples.
+    F32(Vec<f32>),
+    /// `float64` samples.
+    F64(Vec<f64>),
+}
+
+/// Runs `$body` with `$v` bound to the typed sample vector of `$data`,
+/// whatever its variant: one generic function serves all eight types.
+macro_rules! with_samples {
+    ($data:expr, $v:ident => $body:expr) => {
+        match $data {
+            VolumeData::I8($v) => $body,
+            VolumeData::U8($v) => $body,
+            VolumeData::I16($v) => $body,
+            VolumeData::U16($v) => $body,
+            VolumeData::I32($v) => $body,
+            VolumeData::U32($v) => $body,
+            VolumeData::F32($v) => $body,
+            VolumeData::F64($v) => $body,
+        }
+    };
+}
+
+impl VolumeData {
+    /// The element type of the samples.
+    pub fn scalar_type(&self) -> ScalarType {
+        match self {
+            VolumeData::I8(_) => ScalarType::I8,
+            VolumeData::U8(_) => ScalarType::U8,
+            VolumeData::I16(_) => ScalarType::I16,
+            VolumeData::U16(_) => ScalarType::U16,
+            VolumeData::I32(_) => ScalarType::I32,
+            VolumeData::U32(_) => ScalarType::U32,
+            VolumeData::F32(_) => ScalarType::F32,
+            VolumeData::F64(_) => ScalarType::F64,
+        }
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        with_samples!(self, v => v.len())
+    }
+
+    /// Whether there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Sample `i` (linear index) as `f64`, or `None` past the end. Every
+    /// element type converts exactly.
+    #[inline]
+    pub fn value(&self, i: usize) -> Option<f64> {
+        with_samples!(self, v => v.get(i).map(|s| s.to_f64()))
+    }
+}
+
+/// An element type of [`VolumeData`]: what the statistics and the readers
+/// need to treat all eight alike.
+pub(crate) trait Sample: Copy + Default + PartialOrd + Send + Sync + 'static {
+    /// The matching [`ScalarType`].
+    const TYPE: ScalarType;
+    /// Bits of [`Sample::key`]: the width of the type.
+    const KEY_BITS: u32;
+    /// Wraps a vector of this type.
+    fn wrap(v: Vec<Self>) -> VolumeData;
+    /// Decodes one sample from exactly `size_of::<Self>()` bytes.
+    fn from_bytes(b: &[u8], big_endian: bool) -> Self;
+    /// Parses one sample written as text (integers must be in range).
+    fn parse(s: &str) -> Option<Self>;
+    /// The value as `f64` (exact for every type here).
+    fn to_f64(self) -> f64;
+    /// An unsigned key whose integer order is the numeric order of the
+    /// samples; `None` for NaN and ±∞, which statistics skip.
+    fn key(self) -> Option<u64>;
+    /// The inverse of [`Sample::key`].
+    fn from_key(k: u64) -> Self;
+    /// Whether the sample counts as set in an occupancy grid: nonzero and
+    /// not NaN.
+    fn is_set(self) -> bool;
+}
+
+macro_rules! int_sample {
+    ($t:ty, $variant:ident, $bits:expr, $flip:expr) => {
+        impl Sample for $t {
+            const TYPE: ScalarType = ScalarType::$variant;
+            const KEY_BITS: u32 = $bits;
+            fn wrap(v: Vec<Self>) -> VolumeData {
+                VolumeData::$variant(v)
+            }
+            #[inline]
+            fn from_bytes(b: &[u8], big_endian: bool) -> Self {
+                let mut a = [0u8; std::mem::size_of::<$t>()];
+                a.copy_from_slice(b);
+                if big_endian {
+                    <$t>::from_be_bytes(a)
+                } else {
+                    <$t>::from_le_bytes(a)
+                }
+            }
+            fn parse(s: &str) -> Option<Self> {
+                s.parse::<i64>().ok().and_then(|v| <$t>::try_from(v).ok())
+            }
+            #[inline]
+            fn to_f64(self) -> f64 {
+                f64::from(self)
+            }
+            #[inline]
+            fn key(self) -> Option<u64> {
+                // Flipping the sign bit of a two's complement value orders it
+                // as unsigned; unsigned types flip nothing.
+                Some((self as u64 & ((1u64 << $bits) - 1)) ^ $flip)
+            }
+            #[inline]
+            fn from_key(k: u64) -> Self {
+                (k ^ $flip) as $t
+            }
+            #[inline]
+            fn is_set(self) -> bool {
+                self != 0
+            }
+        }
+    };
+}
+
+int_sample!(i8, I8, 8, 0x80);
+int_sample!(u8, U8, 8, 0);
+int_sample!(i16, I16, 16, 0x8000);
+int_sample!(u16, U16, 16, 0);
+int_sample!(i32, I32, 32, 0x8000_0000);
+int_sample!(u32, U32, 32, 0);
+
+macro_rules! float_sample {
+    ($t:ty, $variant:ident, $bits:expr, $uint:ty) => {
+        impl Sample for $t {
+            const TYPE: ScalarType = ScalarType::$variant;
+            const KEY_BITS: u32 = $bits;
+            fn wrap(v: Vec<Self>) -> VolumeData {
+                VolumeData::$variant(v)
+            }
+            #[inline]
+            fn from_bytes(b: &[u8], big_endian: bool) -> Self {
+                let mut a = [0u8; std::mem::size_of::<$t>()];
+                a.copy_from_slice(b);
+                if big_endian {
+                    <$t>::from_be_bytes(a)
+                } else {
+                    <$t>::from_le_bytes(a)
+                }
+            }
+            fn parse(s: &str) -> Option<Self> {
+                s.parse::<$t>().ok()
+            }
+            #[inline]
+            fn to_f64(self) -> f64 {
+                f64::from(self)
+            }
+            #[inline]
+            fn key(self) -> Option<u64> {
+                if !self.is_finite() {
+                    return None;
+                }
+                // IEEE order as unsigned order: negative values reverse
+                // (flip all bits), positive ones move above them (set the
+                // sign bit).
+                const SIGN: $uint = 1 << ($bits - 1);
+                let b = self.to_bits();
+                Some((if b & SIGN != 0 { !b } else { b | SIGN }) as u64)
+            }
+            #[inline]
+            fn from_key(k: u64) -> Self {
+                const SIGN: $uint = 1 << ($bits - 1);
+                let k = k as $uint;
+                <$t>::from_bits(if k & SIGN != 0 { k & !SIGN } else { !k })
+            }
+            #[inline]
+            fn is_set(self) -> bool {
+                self != 0.0 && !self.is_nan()
+            }
+        }
+    };
+}
+
+float_sample!(f32, F32, 32, u32);
+float_sample!(f64, F64, 64, u64);
+
+/// Places a volume's grid in world space.
+///
+/// `origin` is the world position of the **centre** of voxel `(0, 0, 0)`
+/// (NRRD `space origin`, MetaImage `Offset`); column `i` of `axes` is the
+/// world displacement of one voxel step along grid axis `i` (NRRD
+/// `space directions`; `diag(spacing)` for axis-aligned files). So
+/// `world = origin + axes · grid`, with voxel centres at integer grid points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VolumeFrame {
+    /// World position of the centre of voxel `(0, 0, 0)`.
+    pub origin: DVec3,
+    /// Column `i`: world step of one voxel along grid axis `i`.
+    pub axes: DMat3,
+}
+
+impl Default for VolumeFrame {
+    /// Origin 0, unit spacing: world = grid.
+    fn default() -> Self {
+        VolumeFrame {
+            origin: DVec3::ZERO,
+            axes: DMat3::IDENTITY,
+        }
+    }
+}
+
+impl VolumeFrame {
+    /// The smallest `|det(axes)| / (|a0| |a1| |a2|)` accepted: the volume of
+    /// the voxel relative to a cube with the same edges. Below it the
+    /// inverse loses most of its digits (the axes are nearly coplanar).
+    pub const MIN_CONDITION: f64 = 1e-9;
+
+    /// An axis-aligned frame: `axes = diag(spacing)`.
+    pub fn from_spacing(origin: DVec3, spacing: DVec3) -> Self {
+        VolumeFrame {
+            origin,
+            axes: DMat3::from_diagonal(spacing),
+        }
+    }
+
+    /// The frame of a voxel [`GridFrame`] (cubic voxels, origin at the min
+    /// corner of voxel 0): the centre is half a voxel further in.
+    pub fn from_grid_frame(frame: &GridFrame) -> Self {
+        let h = frame.voxel_size;
+        VolumeFrame {
+            origin: frame.origin + DVec3::splat(h / 2.0),
+            axes: DMat3::from_diagonal(DVec3::splat(h)),
+        }
+    }
+
+    /// Voxel spacing along each grid axis: the lengths of the columns of
+    /// `axes`.
+    pub fn spacing(&self) -> DVec3 {
+        DVec3::new(
+            self.axes.x_axis.length(),
+            self.axes.y_axis.length(),
+            self.axes.z_axis.length(),
+        )
+    }
+
+    /// Grid-space point → world point: `origin + axes · g`.
+    #[inline]
+    pub fn grid_to_world(&self, g: DVec3) -> DVec3 {
+        self.origin + self.axes * g
+    }
+
+    /// World point → grid-space point (voxel centres at integers).
+    /// Inverts `axes` on every call: a hot loop should keep
+    /// `axes.inverse()` itself.
+    ///
+    /// ```
+    /// use glam::{DMat3, DVec3};
+    /// use voxkit::grid::VolumeFrame;
+    /// let f = VolumeFrame::from_spacing(DVec3::new(10.0, 0.0, -5.0), DVec3::new(2.0, 3.0, 0.5));
+    /// // The centre of voxel (0,0,0) is the origin; voxel (1,1,1) is one spacing further.
+    /// assert_eq!(f.world_to_grid(DVec3::new(10.0, 0.0, -5.0)), DVec3::ZERO);
+    /// assert_eq!(f.world_to_grid(DVec3::new(12.0, 3.0, -4.5)), DVec3::ONE);
+    /// // A sheared frame round-trips too.
+    /// let s = VolumeFrame { origin: DVec3::ZERO, axes: DMat3::from_cols_array(&[1.0, 0.0, 0.0, 0.5, 1.0, 0.0, 0.0, 0.0, 2.0]) };
+    /// let g = DVec3::new(3.0, -1.0, 2.5);
+    /// assert!((s.world_to_grid(s.grid_to_world(g)) - g).length() < 1e-12);
+    /// ```
+    #[inline]
+    pub fn world_to_grid(&self, w: DVec3) -> DVec3 {
+        self.axes.inverse() * (w - self.origin)
+    }
+
+    /// Checks that the frame is usable: finite origin and axes, and axes
+    /// that are not singular or nearly so (see [`VolumeFrame::MIN_CONDITION`]).
+    pub fn validate(&self) -> Result<()> {
+        let cols = [self.axes.x_axis, self.axes.y_axis, self.axes.z_axis];
+        if !self.origin.is_finite() || cols.iter().any(|c| !c.is_finite()) {
+            return Err(VoxkitError::invalid(format!(
+                "volume frame is not finite: origin {}, axes {:?}",
+                self.origin, cols
+            )));
+        }
+        let norms: f64 = cols.iter().map(|c| c.length()).product();
+        let ratio = self.axes.determinant().abs() / norms;
+        // A zero column gives 0/0 = NaN, which fails the comparison.
+        let well_conditioned = ratio >= Self::MIN_CONDITION; // false for NaN
+        if !well_conditioned || !self.axes.inverse().is_finite() {
+            return Err(VoxkitError::invalid(format!(
+                "volume axes {cols:?} are singular or nearly so (|det| / product of \
+                 column lengths = {ratio:e})"
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// A dense scalar volume: samples in the file's element type, x fastest,
+/// placed in world space by a [`VolumeFrame`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScalarVolume {
+    /// Extents `[nx, ny, nz]` in voxels.
+    pub dims: Dims,
+    /// The samples, `nx * ny * nz` of them, x fastest.
+    pub data: VolumeData,
+    /// Where the grid sits in world space.
+    pub frame: VolumeFrame,
+}
+
+impl ScalarVolume {
+    /// A volume of `dims` holding `data` (x fastest). Fails with
+    /// [`VoxkitError::Invalid`] if a side is zero or too large to index, if
+    /// `data` does not hold exactly `nx * ny * nz` samples, or if the frame
+    /// is not valid ([`VolumeFrame::validate`]).
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// use voxkit::grid::{ScalarType, ScalarVolume, VolumeData, VolumeFrame};
+    /// let frame = VolumeFrame::from_spacing(DVec3::ZERO, DVec3::new(1.0, 1.0, 2.5));
+    /// let v = ScalarVolume::new([3, 2, 1], VolumeData::I16(vec![0, 1, 2, 3, 4, -5]), frame).unwrap();
+    /// assert_eq!(v.source_type(), ScalarType::I16);
+    /// assert_eq!(v.get(2, 1, 0), -5.0); // index 2 + 3 * 1
+    /// assert_eq!(v.range(), Some((-5.0, 4.0)));
+    /// // Five samples cannot fill 3 x 2 x 1.
+    /// assert!(ScalarVolume::new([3, 2, 1], VolumeData::U8(vec![0; 5]), frame).is_err());
+    /// ```
+    pub fn new(dims: Dims, data: VolumeData, frame: VolumeFrame) -> Result<Self> {
+        let n = cell_count(dims)?;
+        if data.len() != n {
+            return Err(VoxkitError::invalid(format!(
+                "volume data has {} samples, dimensions {}x{}x{} need {n}",
+                data.len(),
+                dims[0],
+                dims[1],
+                dims[2]
+            )));
+        }
+        frame.validate()?;
+        Ok(ScalarVolume { dims, data, frame })
+    }
+
+    /// The element type the samples are stored in.
+    pub fn source_type(&self) -> ScalarType {
+        self.data.scalar_type()
+    }
+
+    /// Number of samples, `nx * ny * nz`.
+    pub fn len(&self) -> usize {
+        self.data.len()
+    }
+
+    /// Always false: a volume has at least one sample.
+    pub fn is_empty(&self) -> bool {
+        self.data.is_empty()
+    }
+
+    /// Linear index of sample `(x, y, z)`, or `None` outside the grid.
+    #[inline]
+    pub fn index(&self, x: usize, y: usize, z: usize) -> Option<usize> {
+        let [nx, ny, nz] = self.dims;
+        (x < nx && y < ny && z < nz).then(|| x + nx * (y + ny * z))
+    }
+
+    /// Sample `(x, y, z)` as `f64`.
+    ///
+    /// # Panics
+    /// If `(x, y, z)` lies outside the grid (as slice indexing does); use
+    /// [`ScalarVolume::index`] and [`VolumeData::value`] to check instead.
+    #[inline]
+    pub fn get(&self, x: usize, y: usize, z: usize) -> f64 {
+        self.index(x, y, z)
+            .and_then(|i| self.data.value(i))
+            .unwrap_or_else(|| panic!("sample ({x}, {y}, {z}) outside {:?}", self.dims))
+    }
+
+    /// The samples converted to a dense `f32` grid (what a ray caster
+    /// samples). Checked against `limit` before allocating; `f64` and 32-bit
+    /// integer samples round to the nearest `f32`.
+    pub fn to_f32(&self, limit: MemoryLimit) -> Result<DenseGrid<f32>> {
+        let [nx, ny, nz] = self.dims;
+        limit.check(
+            &format!("f32 copy of a {nx}x{ny}x{nz} volume"),
+            self.len() as u128,
+            4,
+        )?;
+        let mut out = Vec::new();
+        out.try_reserve_exact(self.len())
+            .map_err(|_| VoxkitError::Limits {
+                what: format!("f32 copy of a {nx}x{ny}x{nz} volume"),
+                needed: self.len() as u128 * 4,
+                limit: limit.bytes,
+            })?;
+        with_samples!(&self.data, v => out.extend(v.iter().map(|s| s.to_f64() as f32)));
+        DenseGrid::from_vec(self.dims, out)
+    }
+
+    /// The smallest and largest finite sample, or `None` if no sample is
+    /// finite (NaN and ±∞ are skipped).
+    pub fn range(&self) -> Option<(f64, f64)> {
+        with_samples!(&self.data, v => finite_range(v))
+    }
+
+    /// The `ps` percentiles (each in `0..=100`, clamped; NaN gives NaN) of
+    /// the finite samples, **exact**, interpolated between neighbouring
+    /// ranks as NumPy's default (`linear`) method does: percentile `p` is
+    /// `s[⌊r⌋] + (r - ⌊r⌋)(s[⌊r⌋+1] - s[⌊r⌋])` with `r = p/100 · (n - 1)`
+    /// over the sorted finite samples `s`. NaN and ±∞ are skipped; with no
+    /// finite sample every entry is NaN.
+    ///
+    /// Nothing is sorted or copied: each rank is found by radix selection
+    /// on the samples' order-preserving bit patterns, 16 bits per pass
+    /// (one pass for 8/16-bit types, two for 32-bit, four for `f64`),
+    /// with one 65 536-entry count table.
+    pub fn percentiles(&self, ps: &[f64]) -> Vec<f64> {
+        with_samples!(&self.data, v => percentiles_of(v, ps))
+    }
+
+    /// Whether this is an occupancy grid in disguise: 8-bit samples (`bool`
+    /// arrays read as `uint8`) that are all 0 or 1. The renderer then draws
+    /// it as voxels rather than as a density.
+    pub fn is_binary(&self) -> bool {
+        match &self.data {
+            VolumeData::U8(v) => v.iter().all(|&s| s <= 1),
+            VolumeData::I8(v) => v.iter().all(|&s| s == 0 || s == 1),
+            _ => false,
+        }
+    }
+
+    /// The voxels whose sample is set (nonzero and not NaN), in grid
+    /// coordinates.
+    pub fn to_brick_grid(&self) -> BrickGrid {
+        with_samples!(&self.data, v => occupancy(v, self.dims))
+    }
+}
+
+fn finite_range<T: Sample>(v: &[T]) -> Option<(f64, f64)> {
+    // Min and max by key: the key skips non-finite values and orders the
+    // rest exactly, in one pass without float comparisons.
+    let (lo, hi) = v
+        .iter()
+        .filter_map(|s| s.key())
+        .fold((u64::MAX, 0u64), |(lo, hi), k| (lo.min(k), hi.max(k)));
+    (lo <= hi).then(|| (T::from_key(lo).to_f64(), T::from_key(hi).to_f64()))
+}
+
+fn percentiles_of<T: Sample>(v: &[T], ps: &[f64]) -> Vec<f64> {
+    let n = v.iter().filter(|s| s.key().is_some()).count();
+    let mut counts = vec![0usize; 1 << 16];
+    ps.iter()
+        .map(|&p| {
+            if n == 0 || p.is_nan() {
+                return f64::NAN;
+            }
+            let r = p.clamp(0.0, 100.0) / 100.0 * (n - 1) as f64;
+            let lo = (r.floor() as usize).min(n - 1);
+            let frac = r - lo as f64;
+            let a = select::<T>(v, lo, &mut counts);
+            if frac == 0.0 || lo + 1 >= n {
+                return a;
+            }
+            let b = select::<T>(v, lo + 1, &mut counts);
+            a + frac * (b - a)
+        })
+        .collect()
+}
+
+/// The finite sample of rank `rank` (0-based, ascending) by radix
+/// selection: fix the key's top bits 16 at a time, each pass counting the
+/// next digit among the samples that share the prefix fixed so far.
+fn select<T: Sample>(v: &[T], mut rank: usize, counts: &mut [usize]) -> f64 {
+    let mut prefix = 0u64;
+    let mut known = 0u32;
+    while known < T::KEY_BITS {
+        let digit_bits = (T::KEY_BITS - known).min(16);
+        let shift = T::KEY_BITS - known - digit_bits;
+        let counts = &mut counts[..1 << digit_bits];
+        counts.fill(0);
+        let mask = (1u64 << digit_bits) - 1;
+        for k in v.iter().filter_map(|s| s.key()) {
+            // `checked_shr` keeps a shift by 64 (nothing fixed yet) defined.
+            if k.checked_shr(shift + digit_bits).unwrap_or(0) == prefix {
+                counts[((k >> shift) & mask) as usize] += 1;
+            }
+        }
+        let mut digit = 0;
+        while rank >= counts[digit] {
+            rank -= counts[digit];
+            digit += 1;
+        }
+        prefix = (prefix << digit_bits) | digit as u64;
+        known += digit_bits;
+    }
+    T::from_key(prefix).to_f64()
+}
+
+fn occupancy<T: Sample>(v: &[T], dims: Dims) -> BrickGrid {
+    let [nx, ny, _] = dims;
+    let mut grid = BrickGrid::new();
+    // `ScalarVolume::new` checked that every coordinate fits an i32.
+    for (i, _) in v.iter().enumerate().filter(|(_, s)| s.is_set()) {
+        let (x, yz) = (i % nx, i / nx);
+        grid.insert(IVec3::new(x as i32, (yz % ny) as i32, (yz / ny) as i32));
+    }
+    grid
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn vol(dims: Dims, data: VolumeData) -> ScalarVolume {
+        ScalarVolume::new(dims, data, VolumeFrame::default()).unwrap()
+    }
+
+    /// NumPy's `linear` percentile by sorting: the reference.
+    fn sorted_percentile(v: &[f64], p: f64) -> f64 {
+        let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+        s.sort_by(f64::total_cmp);
+        let r = p / 100.0 * (s.len() - 1) as f64;
+        let lo = r.floor() as usize;
+        let hi = (lo + 1).min(s.len() - 1);
+        s[lo] + (r - lo as f64) * (s[hi] - s[lo])
+    }
+
+    #[test]
+    fn keys_order_like_numbers() {
+        let f = [-f64::MAX, -1.5, -0.0, 0.0, 1e-300, 2.0, f64::MAX];
+        let k: Vec<u64> = f.iter().map(|x| x.key().unwrap()).collect();
+        assert!(k.windows(2).all(|w| w[0] < w[1]));
+        for x in f {
+            assert_eq!(f64::from_key(x.key().unwrap()).to_bits(), x.to_bits());
+        }
+        for x in [f32::MIN, -3.25, 0.0, 7.5, f32::MAX] {
+            assert_eq!(f32::from_key(x.key().unwrap()), x);
+        }
+        assert_eq!(f32::NAN.key(), None);
+        assert_eq!(f64::INFINITY.key(), None);
+        let i = [i32::MIN, -1, 0, 1, i32::MAX];
+        let k: Vec<u64> = i.iter().map(|x| x.key().unwrap()).collect();
+        assert!(k.windows(2).all(|w| w[0] < w[1]));
+        assert!(i.iter().all(|&x| i32::from_key(x.key().unwrap()) == x));
+        assert!(
+            [-128i8, -1, 0, 127]
+                .iter()
+                .all(|&x| i8::from_key(x.key().unwrap()) == x)
+        );
+        assert!(
+            [-32768i16, -1, 0, 32767]
+                .iter()
+                .all(|&x| i16::from_key(x.key().unwrap()) == x)
+        );
+    }
+
+    #[test]
+    fn percentiles_match_sorting_for_every_type() {
+        let raw: Vec<f64> = (0..997u32)
+            .map(|i| ((i * 7919) % 1000) as f64 - 300.0)
+            .collect();
+        let ps = [0.0, 1.0, 25.0, 50.0, 99.5, 100.0, 33.3];
+        let cases = [
+            VolumeData::I16(raw.iter().map(|&x| x as i16).collect()),
+            VolumeData::I32(raw.iter().map(|&x| x as i32 * 1000).collect()),
+            VolumeData::F32(raw.iter().map(|&x| x as f32 * 0.25).collect()),
+            VolumeData::F64(raw.iter().map(|&x| x * 1e-7).collect()),
+            VolumeData::U8(
+                raw.iter()
+                    .map(|&x| (x as i32).rem_euclid(256) as u8)
+                    .collect(),
+            ),
+            VolumeData::U32(raw.iter().map(|&x| (x + 300.0) as u32 * 99_999).collect()),
+        ];
+        for data in cases {
+            let v = vol([997, 1, 1], data);
+            let f: Vec<f64> = (0..v.len()).map(|i| v.data.value(i).unwrap()).collect();
+            let got = v.percentiles(&ps);
+            for (p, g) in ps.iter().zip(got) {
+                let want = sorted_percentile(&f, *p);
+                assert!(
+                    (g - want).abs() <= 1e-12 * want.abs().max(1.0),
+                    "{:?} p{p}: {g} vs {want}",
+                    v.source_type()
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn statistics_skip_nan_and_infinity() {
+        let v = vol(
+            [3, 2, 1],
+            VolumeData::F32(vec![
+                f32::NAN,
+                2.0,
+                f32::INFINITY,
+                -1.0,
+                f32::NEG_INFINITY,
+                5.0,
+            ]),
+        );
+        assert_eq!(v.range(), Some((-1.0, 5.0)));
+        assert_eq!(v.percentiles(&[0.0, 50.0, 100.0]), vec![-1.0, 2.0, 5.0]);
+        assert!(v.percentiles(&[f64::NAN])[0].is_nan());
+        // Out-of-range percentiles clamp.
+        assert_eq!(v.percentiles(&[-5.0, 250.0]), vec![-1.0, 5.0]);
+        let all_nan = vol([2, 1, 1], VolumeData::F64(vec![f64::NAN; 2]));
+        assert_eq!(all_nan.range(), None);
+        assert!(all_nan.percentiles(&[50.0])[0].is_nan());
+        // NaN is not a set voxel; -0.0 is zero.
+        let g = vol([3, 1, 1], VolumeData::F64(vec![f64::NAN, -0.0, 0.5])).to_brick_grid();
+        assert_eq!(g.iter().collect::<Vec<_>>(), vec![IVec3::new(2, 0, 0)]);
+    }
+
+    #[test]
+    fn binary_and_occupancy() {
+        let dims = [5, 3, 7];
+        let n = 105;
+        let bits: Vec<u8> = (0..n).map(|i| u8::from(i % 3 == 0)).collect();
+        let v = vol(dims, VolumeData::U8(bits.clone()));
+        assert!(v.is_binary());
+        let g = v.to_brick_grid();
+        assert_eq!(g.count(), 35);
+        for (i, &b) in bits.iter().enumerate() {
+            let p = IVec3::new((i % 5) as i32, ((i / 5) % 3) as i32, (i / 15) as i32);
+            assert_eq!(g.contains(p), b == 1);
+            assert_eq!(v.get(p.x as usize, p.y as usize, p.z as usize), b as f64);
+        }
+        assert!(!vol([2, 1, 1], VolumeData::U8(vec![0, 2])).is_binary());
+        assert!(!vol([2, 1, 1], VolumeData::I8(vec![0, -1])).is_binary());
+        assert!(!vol([2, 1, 1], VolumeData::U16(vec![0, 1])).is_binary());
+    }
+
+    #[test]
+    fn to_f32_checks_the_limit_first() {
+        let v = vol([4, 4, 4], VolumeData::U16((0..64).collect()));
+        assert!(matches!(
+            v.to_f32(MemoryLimit::new(255)),
+            Err(VoxkitError::Limits { .. })
+        ));
+        let g = v.to_f32(MemoryLimit::new(256)).unwrap();
+        assert_eq!(g.dims(), [4, 4, 4]);
+        assert_eq!(g.as_slice()[37], 37.0);
+    }
+
+    #[test]
+    fn constructor_and_frame_checks() {
+        let ok = VolumeFrame::default();
+        assert!(ScalarVolume::new([0, 1, 1], VolumeData::U8(vec![]), ok).is_err());
+        assert!(ScalarVolume::new([2, 2, 1], VolumeData::U8(vec![0; 5]), ok).is_err());
+        let bad = [
+            VolumeFrame::from_spacing(DVec3::ZERO, DVec3::new(1.0, 0.0, 1.0)),
+            VolumeFrame::from_spacing(DVec3::new(f64::NAN, 0.0, 0.0), DVec3::ONE),
+            VolumeFrame::from_spacing(DVec3::ZERO, DVec3::new(1.0, f64::INFINITY, 1.0)),
+            VolumeFrame::from_spacing(DVec3::ZERO, DVec3::splat(1e-200)),
+            VolumeFrame {
+                origin: DVec3::ZERO,
+                // Two columns 1e-12 apart: nearly coplanar.
+                axes: DMat3::from_cols(DVec3::X, DVec3::new(1.0, 1e-12, 0.0), DVec3::Z),
+            },
+        ];
+        for f in bad {
+            assert!(
+                matches!(f.validate(), Err(VoxkitError::Invalid(_))),
+                "{f:?}"
+            );
+        }
+        // Negative spacing is a mirror, not an error.
+        let m = VolumeFrame::from_spacing(DVec3::ONE, DVec3::new(-2.0, 1.0, 0.5));
+        m.validate().unwrap();
+        assert_eq!(m.spacing(), DVec3::new(2.0, 1.0, 0.5));
+        assert_eq!(
+            m.world_to_grid(DVec3::new(-3.0, 2.0, 1.5)),
+            DVec3::new(2.0, 1.0, 1.0)
+        );
+    }
+
+    #[test]
+    fn grid_frame_centres_agree() {
+        let gf = GridFrame::new(DVec3::new(1.0, -2.0, 3.0), 0.5, [4, 5, 6]);
+        let vf = VolumeFrame::from_grid_frame(&gf);
+        for g in [
+            DVec3::ZERO,
+            DVec3::new(3.0, 4.0, 5.0),
+            DVec3::new(-0.5, 0.25, 2.0),
+        ] {
+            assert!((vf.grid_to_world(g) - gf.grid_to_world(g)).length() < 1e-12);
+            let w = gf.grid_to_world(g);
+            assert!((vf.world_to_grid(w) - gf.world_to_grid(w)).length() < 1e-12);
+        }
+    }
+}
