@@ -157,6 +157,7 @@ impl Core {
     }
 
     /// Starts in 26 mode at the segment's start voxel.
+    #[cfg(test)]
     pub(crate) fn at_26_start(f: &Frame) -> Self {
         let plan = Plan26::new(f);
         Core {
@@ -234,7 +235,7 @@ impl Core {
     }
 
     /// [`Core::step`] before the end voxel (the caller knows it is not there).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn step_on(&mut self, flagged: bool) -> usize {
         if self.mode == RayMode::TwentySix && flagged {
             self.mode = RayMode::Six;

@@ -24,7 +24,9 @@ use glam::{DVec3, IVec3};
 
 use crate::line::adaptive::{Core, RayMode};
 use crate::line::amanatides_woo::AwStepper;
+use crate::line::line26::{Mid26State, Moves, Plan26};
 use crate::line::segment::{Frame, Segment};
+use crate::line::tripod6::{JUMP_MAX_DELTA, JUMP_MAX_EXTENT, TripodState};
 
 use super::RayKind;
 use super::occupancy::{OccupancyGrid, word_bit};
@@ -62,6 +64,122 @@ fn empty_box(b: IVec3, k: u8, margin: i32, v: IVec3) -> Option<(IVec3, IVec3)> {
     (v.cmpge(lo).all() && v.cmple(hi).all()).then_some((lo, hi))
 }
 
+/// What the generic walk needs from a ray kind's stepping state.
+trait Stepper {
+    /// Whether a voxel's proximity flag matters (the adaptive ray).
+    const READS_FLAGS: bool;
+    /// One step out of the current voxel (not the last); the local move mask.
+    fn step(&mut self, flagged: bool) -> usize;
+    /// Whether a jump may be tried now (the adaptive ray: in 26 mode).
+    fn may_jump(&self) -> bool;
+    /// O(1) jump past the local box `[c, c + h]` of the current voxel `c`;
+    /// the local moves, or `None`.
+    fn jump(&mut self, h: [i64; 3], c: [i64; 3]) -> Option<[i64; 3]>;
+    /// A token that changes when the stepping mode changes.
+    fn mode(&self) -> bool;
+}
+
+/// The tripod 6-ray on its bare decision variables.
+struct Six {
+    s: TripodState<i64>,
+    end: [i64; 3],
+}
+
+impl Stepper for Six {
+    const READS_FLAGS: bool = false;
+    #[inline(always)]
+    fn step(&mut self, _: bool) -> usize {
+        1 << self.s.step()
+    }
+    #[inline(always)]
+    fn may_jump(&self) -> bool {
+        true
+    }
+    #[inline(always)]
+    fn jump(&mut self, h: [i64; 3], c: [i64; 3]) -> Option<[i64; 3]> {
+        let h: [i64; 3] =
+            std::array::from_fn(|k| h[k].clamp(0, JUMP_MAX_EXTENT).min(self.end[k] - c[k]));
+        if (0..3).all(|k| c[k] + h[k] == self.end[k]) {
+            return None;
+        }
+        Some(self.s.exit_box(h))
+    }
+    #[inline(always)]
+    fn mode(&self) -> bool {
+        false
+    }
+}
+
+/// The adaptive ray (and, for lines whose 26-line middle is too short to
+/// matter, nothing else): the line engine's adaptive core.
+struct Adaptive(Core);
+
+impl Stepper for Adaptive {
+    const READS_FLAGS: bool = true;
+    #[inline(always)]
+    fn step(&mut self, flagged: bool) -> usize {
+        self.0.step_on(flagged)
+    }
+    #[inline(always)]
+    fn may_jump(&self) -> bool {
+        self.0.mode == RayMode::TwentySix
+    }
+    #[inline(always)]
+    fn jump(&mut self, h: [i64; 3], _: [i64; 3]) -> Option<[i64; 3]> {
+        self.0.jump(h)
+    }
+    #[inline(always)]
+    fn mode(&self) -> bool {
+        self.0.mode == RayMode::TwentySix
+    }
+}
+
+/// The 26-ray: the plan's prefix and suffix moves around the middle
+/// columns, which step on the bare midpoint variables.
+struct TwentySix {
+    pre: Moves,
+    pre_i: usize,
+    mid: Mid26State<i64>,
+    mid_left: u64,
+    post: Moves,
+    post_i: usize,
+}
+
+impl Stepper for TwentySix {
+    const READS_FLAGS: bool = false;
+    #[inline(always)]
+    fn step(&mut self, _: bool) -> usize {
+        if self.mid_left > 0 && self.pre_i == self.pre.len {
+            self.mid_left -= 1;
+            self.mid.step()
+        } else if self.pre_i < self.pre.len {
+            self.pre_i += 1;
+            self.pre.m[self.pre_i - 1] as usize
+        } else {
+            self.post_i += 1;
+            self.post.m[self.post_i - 1] as usize
+        }
+    }
+    #[inline(always)]
+    fn may_jump(&self) -> bool {
+        self.pre_i == self.pre.len && self.mid_left > 0
+    }
+    #[inline(always)]
+    fn jump(&mut self, h: [i64; 3], _: [i64; 3]) -> Option<[i64; 3]> {
+        let h = h.map(|x| x.clamp(0, JUMP_MAX_EXTENT));
+        let d = self.mid.jump_box(h, self.mid_left);
+        if d[0] == 0 {
+            return None;
+        }
+        self.mid_left -= d[0] as u64;
+        Some(d)
+    }
+    #[inline(always)]
+    fn mode(&self) -> bool {
+        false
+    }
+}
+
 fn first_hit_exact(
     occ: &OccupancyGrid,
     seg: &Segment,
@@ -72,48 +190,102 @@ fn first_hit_exact(
     let f = Frame::new(seg);
     // The segment lies in the grid: its whole path is in-grid.
     debug_assert!(occ.in_grid(seg.start_voxel()) && occ.in_grid(seg.end_voxel()));
-    let te = f.tripod_steps() as i64;
-    let mut core = match kind {
-        RayKind::TwentySix => Core::at_26_start(&f),
-        _ => Core::at_tripod_in(&f, [0; 3]),
-    };
+    if f.d[0] > JUMP_MAX_DELTA {
+        // Longer than any grid the renderer accepts: the general core.
+        return walk(
+            occ,
+            &f,
+            Adaptive(Core::at_tripod_in(&f, [0; 3])),
+            kind,
+            false,
+            n,
+        );
+    }
+    match kind {
+        RayKind::Six => {
+            let s = Six {
+                s: TripodState::at(&f, [0; 3]),
+                end: f.end,
+            };
+            walk(occ, &f, s, kind, skip, n)
+        }
+        RayKind::TwentySix => {
+            let plan = Plan26::new(&f);
+            let s = TwentySix {
+                pre: plan.pre,
+                pre_i: 0,
+                mid: Mid26State::at(&f, plan.mid_start),
+                mid_left: plan.mid,
+                post: plan.post,
+                post_i: 0,
+            };
+            walk(occ, &f, s, kind, skip, n)
+        }
+        _ => walk(
+            occ,
+            &f,
+            Adaptive(Core::at_tripod_in(&f, [0; 3])),
+            kind,
+            skip,
+            n,
+        ),
+    }
+}
+
+/// The walk of one exact ray from the segment's start voxel: per brick,
+/// jump its empty box when the cloud allows, else visit voxel by voxel.
+#[inline(always)]
+fn walk<S: Stepper>(
+    occ: &OccupancyGrid,
+    f: &Frame,
+    mut s: S,
+    kind: RayKind,
+    skip: bool,
+    n: &mut CastCounters,
+) -> Option<IVec3> {
     let steps = f.mask_steps();
-    let mut v = f.voxel_world(core.c);
-    let mut t: i64 = core.c.iter().sum();
+    let te = f.tripod_steps() as i64;
+    let v0 = f.voxel_world([0; 3]);
+    let local = |v: IVec3| -> [i64; 3] {
+        std::array::from_fn(|j| f.sign[j] * i64::from(v[f.perm[j]] - v0[f.perm[j]]))
+    };
+    let mut v = v0;
+    let mut t = 0i64;
+    // The adaptive ray must not jump into flags: a box one voxel smaller.
     let margin = i32::from(kind == RayKind::Adaptive);
     loop {
-        if t > te {
-            return None;
-        }
         let b = v >> 3;
         let bi = occ.brick_index(b);
         let k = occ.dist[bi];
         if skip
             && k >= 1
-            && (kind != RayKind::Adaptive || core.mode == RayMode::TwentySix)
+            && s.may_jump()
             && let Some((lo, hi)) = empty_box(b, k, margin, v)
         {
-            {
-                // Extent of the box ahead of v along each local axis.
-                let h: [i64; 3] = std::array::from_fn(|j| {
-                    let w = f.perm[j];
-                    i64::from(if f.sign[j] > 0 {
-                        hi[w] - v[w]
-                    } else {
-                        v[w] - lo[w]
-                    })
-                });
-                if core.jump(h).is_some() {
-                    n.jumps += 1;
-                    v = f.voxel_world(core.c);
-                    t = core.c.iter().sum();
-                    continue;
+            // Extent of the box ahead of v along each local axis.
+            let h: [i64; 3] = std::array::from_fn(|j| {
+                let w = f.perm[j];
+                i64::from(if f.sign[j] > 0 {
+                    hi[w] - v[w]
+                } else {
+                    v[w] - lo[w]
+                })
+            });
+            if let Some(d) = s.jump(h, local(v)) {
+                n.jumps += 1;
+                for (j, &dj) in d.iter().enumerate() {
+                    v += steps[1 << j] * dj as i32;
+                    t += dj;
                 }
+                if t > te {
+                    return None;
+                }
+                continue;
             }
         }
         let flags = &occ.bricks[occ.slot[bi] as usize];
-        // Whether a switch to 26 mode should hand back to the jump test.
-        let jumpable = skip && k >= 1 && kind == RayKind::Adaptive;
+        // A switch to 26 mode in a jumpable brick hands back to the jump test.
+        let jumpable = skip && k >= 1 && S::READS_FLAGS;
         loop {
             let (w, bit) = word_bit(v);
             n.visited += 1;
@@ -123,19 +295,12 @@ fn first_hit_exact(
             if t >= te {
                 return None;
             }
-            let flag = match kind {
-                RayKind::Six => true,
-                RayKind::TwentySix => false,
-                _ => flags.prox[w] >> bit & 1 == 1,
-            };
-            let was = core.mode;
-            let mask = core.step_on(flag);
+            let flag = S::READS_FLAGS && flags.prox[w] >> bit & 1 == 1;
+            let was = s.mode();
+            let mask = s.step(flag);
             v += steps[mask];
             t += i64::from(mask.count_ones());
-            if t > te {
-                return None;
-            }
-            if v >> 3 != b || (jumpable && was != core.mode) {
+            if v >> 3 != b || (jumpable && was != s.mode()) {
                 break;
             }
         }
