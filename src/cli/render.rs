@@ -335,11 +335,7 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     }
     let xf = GridTransform::from_frame(&scene.frame)?;
     let prepare_ms = ms(t);
-    let dims = scene.frame.dims.map(|d| d as f64);
-    let (lo, hi) = match occ.bounds() {
-        Some((a, b)) => xf.world_bounds(a.as_dvec3() - 0.5, b.as_dvec3() + 0.5),
-        None => xf.world_bounds(DVec3::splat(-0.5), DVec3::from_array(dims) - 0.5),
-    };
+    let (lo, hi) = crate::render::occupied_world_box(&occ, &xf);
     let base_cam = camera(&args, lo, hi, scene.axes)?;
     let opts = RenderOptions {
         width: w,

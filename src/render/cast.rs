@@ -22,7 +22,6 @@
 
 use glam::{DVec3, IVec3};
 
-use crate::line::adaptive::{Core, RayMode};
 use crate::line::amanatides_woo::AwStepper;
 use crate::line::line26::{Mid26State, Moves, Plan26};
 use crate::line::segment::{Frame, Segment};
@@ -110,27 +109,89 @@ impl Stepper for Six {
     }
 }
 
-/// The adaptive ray (and, for lines whose 26-line middle is too short to
-/// matter, nothing else): the line engine's adaptive core.
-struct Adaptive(Core);
+/// The adaptive ray on bare states: the tripod variables in 6 mode, the
+/// midpoint variables in 26 mode, switching exactly as the line engine's
+/// adaptive core does (26→6 at a flagged voxel; 6→26 at an unflagged voxel
+/// whose next tripod step is major, not in the last two columns), with the
+/// 26-line's suffix moves (its plan) built only if a ray gets there. Pinned
+/// to the core by `lean_adaptive_equals_core`.
+pub(crate) struct Adaptive<'f> {
+    f: &'f Frame,
+    twenty_six: bool,
+    tri: TripodState<i64>,
+    mid: Mid26State<i64>,
+    mid_left: u64,
+    /// Local voxel.
+    c: [i64; 3],
+    post: Option<(Moves, usize)>,
+}
 
-impl Stepper for Adaptive {
+impl<'f> Adaptive<'f> {
+    pub(crate) fn new(f: &'f Frame) -> Self {
+        Adaptive {
+            f,
+            twenty_six: false,
+            tri: TripodState::at(f, [0; 3]),
+            mid: Mid26State::at(f, [0; 3]),
+            mid_left: 0,
+            c: [0; 3],
+            post: None,
+        }
+    }
+}
+
+impl Stepper for Adaptive<'_> {
     const READS_FLAGS: bool = true;
     #[inline(always)]
     fn step(&mut self, flagged: bool) -> usize {
-        self.0.step_on(flagged)
+        let mask = if self.twenty_six {
+            if flagged {
+                self.twenty_six = false;
+                self.tri = TripodState::at(self.f, self.c);
+                1 << self.tri.step()
+            } else if self.mid_left > 0 {
+                self.mid_left -= 1;
+                self.mid.step()
+            } else {
+                let f = self.f;
+                let (moves, i) = self.post.get_or_insert_with(|| (Plan26::new(f).post, 0));
+                *i += 1;
+                moves.m[*i - 1] as usize
+            }
+        } else if !flagged && self.c[0] <= self.f.end[0] - 2 && self.tri.next_is_major() {
+            self.twenty_six = true;
+            self.mid = Mid26State::at(self.f, self.c);
+            self.mid_left = (self.f.end[0] - 2 - self.c[0]) as u64;
+            self.post = None;
+            self.mid.step()
+        } else {
+            1 << self.tri.step()
+        };
+        self.c[0] += (mask & 1) as i64;
+        self.c[1] += (mask >> 1 & 1) as i64;
+        self.c[2] += (mask >> 2 & 1) as i64;
+        mask
     }
     #[inline(always)]
     fn may_jump(&self) -> bool {
-        self.0.mode == RayMode::TwentySix
+        self.twenty_six && self.mid_left > 0
     }
     #[inline(always)]
     fn jump(&mut self, h: [i64; 3], _: [i64; 3]) -> Option<[i64; 3]> {
-        self.0.jump(h)
+        let h = h.map(|x| x.clamp(0, JUMP_MAX_EXTENT));
+        let d = self.mid.jump_box(h, self.mid_left);
+        if d[0] == 0 {
+            return None;
+        }
+        self.mid_left -= d[0] as u64;
+        for (ck, dk) in self.c.iter_mut().zip(d) {
+            *ck += dk;
+        }
+        Some(d)
     }
     #[inline(always)]
     fn mode(&self) -> bool {
-        self.0.mode == RayMode::TwentySix
+        self.twenty_six
     }
 }
 
@@ -190,17 +251,9 @@ fn first_hit_exact(
     let f = Frame::new(seg);
     // The segment lies in the grid: its whole path is in-grid.
     debug_assert!(occ.in_grid(seg.start_voxel()) && occ.in_grid(seg.end_voxel()));
-    if f.d[0] > JUMP_MAX_DELTA {
-        // Longer than any grid the renderer accepts: the general core.
-        return walk(
-            occ,
-            &f,
-            Adaptive(Core::at_tripod_in(&f, [0; 3])),
-            kind,
-            false,
-            n,
-        );
-    }
+    // Grids are at most MAX_RENDER_DIM voxels per axis: the jump arithmetic
+    // is exact in i64 for every in-grid segment.
+    debug_assert!(f.d[0] <= JUMP_MAX_DELTA);
     match kind {
         RayKind::Six => {
             let s = Six {
@@ -221,14 +274,7 @@ fn first_hit_exact(
             };
             walk(occ, &f, s, kind, skip, n)
         }
-        _ => walk(
-            occ,
-            &f,
-            Adaptive(Core::at_tripod_in(&f, [0; 3])),
-            kind,
-            skip,
-            n,
-        ),
+        _ => walk(occ, &f, Adaptive::new(&f), kind, skip, n),
     }
 }
 
@@ -244,6 +290,7 @@ fn walk<S: Stepper>(
     n: &mut CastCounters,
 ) -> Option<IVec3> {
     let steps = f.mask_steps();
+    let geo = BrickGeometry::new(f);
     let te = f.tripod_steps() as i64;
     let v0 = f.voxel_world([0; 3]);
     let local = |v: IVec3| -> [i64; 3] {
@@ -286,23 +333,68 @@ fn walk<S: Stepper>(
         let flags = &occ.bricks[occ.slot[bi] as usize];
         // A switch to 26 mode in a jumpable brick hands back to the jump test.
         let jumpable = skip && k >= 1 && S::READS_FLAGS;
+        // Pointer-offset stepping inside the brick: the bit index
+        // `lx + 8 ly + 64 lz` moves by per-mask offsets, and each local axis
+        // counts the steps it may still take in this brick in a biased
+        // 16-bit lane (`0x100 + steps`): a lane below 0x100 has left it.
+        let mut li = ((v.x & 7) + 8 * (v.y & 7) + 64 * (v.z & 7)) as usize;
+        let mut lanes = 0u64;
+        for j in 0..3 {
+            let w = f.perm[j];
+            let left = if f.sign[j] > 0 {
+                7 - (v[w] & 7)
+            } else {
+                v[w] & 7
+            };
+            lanes |= (0x100 + left as u64) << (16 * j);
+        }
         loop {
-            let (w, bit) = word_bit(v);
             n.visited += 1;
-            if flags.occ[w] >> bit & 1 == 1 {
+            if flags.occ[li >> 6] >> (li & 63) & 1 == 1 {
                 return Some(v);
             }
             if t >= te {
                 return None;
             }
-            let flag = S::READS_FLAGS && flags.prox[w] >> bit & 1 == 1;
+            let flag = S::READS_FLAGS && flags.prox[li >> 6] >> (li & 63) & 1 == 1;
             let was = s.mode();
             let mask = s.step(flag);
             v += steps[mask];
             t += i64::from(mask.count_ones());
-            if v >> 3 != b || (jumpable && was != s.mode()) {
+            li = li.wrapping_add_signed(geo.local_offset[mask]);
+            lanes -= geo.lane_dec[mask];
+            if !lanes & LANE_FLOOR != 0 || (jumpable && was != s.mode()) {
                 break;
             }
+        }
+    }
+}
+
+/// The 0x100 bit of each of the three step-count lanes.
+const LANE_FLOOR: u64 = 0x100 | 0x100 << 16 | 0x100 << 32;
+
+/// Per-ray tables of the in-brick stepping, by local move mask.
+struct BrickGeometry {
+    /// Change of the in-brick bit index `lx + 8 ly + 64 lz`.
+    local_offset: [isize; 8],
+    /// One step off the lane of every local axis in the mask.
+    lane_dec: [u64; 8],
+}
+
+impl BrickGeometry {
+    fn new(f: &Frame) -> Self {
+        let axis: [isize; 3] =
+            std::array::from_fn(|j| f.sign[j] as isize * [1isize, 8, 64][f.perm[j]]);
+        BrickGeometry {
+            local_offset: std::array::from_fn(|m| {
+                (0..3).filter(|j| m >> j & 1 == 1).map(|j| axis[j]).sum()
+            }),
+            lane_dec: std::array::from_fn(|m| {
+                (0..3)
+                    .filter(|j| m >> j & 1 == 1)
+                    .map(|j| 1u64 << (16 * j))
+                    .sum()
+            }),
         }
     }
 }
@@ -345,6 +437,47 @@ fn first_hit_aw(
             }
             if s.voxel() >> 3 != bk {
                 break;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::line::adaptive::Core;
+    use rand::{Rng, SeedableRng};
+
+    /// The lean adaptive stepper makes the adaptive core's moves, step for
+    /// step, under random flag sequences (runs of flagged and unflagged
+    /// voxels), to the segment's end.
+    #[test]
+    fn lean_adaptive_equals_core() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(314);
+        for round in 0..3000 {
+            let span = if round % 4 == 0 { 5.0 } else { 150.0 };
+            let p = |rng: &mut rand_chacha::ChaCha8Rng| -> [f64; 3] {
+                std::array::from_fn(|_| {
+                    let x: f64 = rng.random_range(-span..span);
+                    if rng.random_bool(0.2) { x.round() } else { x }
+                })
+            };
+            let seg = Segment::from_f64(p(&mut rng), p(&mut rng)).unwrap();
+            let f = Frame::new(&seg);
+            let mut core = Core::at_tripod_in(&f, [0; 3]);
+            let mut lean = Adaptive::new(&f);
+            let steps = f.tripod_steps();
+            let mut flagged = rng.random_bool(0.5);
+            let mut i = 0u64;
+            while core.c != f.end {
+                if rng.random_bool(0.1) {
+                    flagged = !flagged;
+                }
+                let m = core.step_on(flagged);
+                assert_eq!(lean.step(flagged), m, "{seg:?} step {i}");
+                assert_eq!(lean.c, core.c);
+                i += 1;
+                assert!(i <= steps);
             }
         }
     }

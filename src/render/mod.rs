@@ -30,7 +30,7 @@ use std::time::Instant;
 use glam::{DMat3, DVec3, IVec3};
 use rayon::prelude::*;
 
-pub use occupancy::OccupancyGrid;
+pub use occupancy::{MAX_RENDER_DIM, OccupancyGrid};
 
 use crate::camera::Camera;
 use crate::error::{Result, VoxkitError};
@@ -510,6 +510,33 @@ pub fn render_grid(
     }
     stats.render_ms = start.elapsed().as_secs_f64() * 1e3;
     Ok((img, stats))
+}
+
+/// The default camera for a grid: the three-quarter view
+/// ([`ViewPreset::Iso`](crate::camera::ViewPreset)) of the occupied voxels'
+/// world box (the whole grid if empty), perspective with a 35° vertical field
+/// of view, framed for a `width × height` image.
+pub fn default_camera(
+    occ: &OccupancyGrid,
+    xf: &GridTransform,
+    axes: &crate::camera::SceneAxes,
+    width: u32,
+    height: u32,
+) -> Result<Camera> {
+    let (lo, hi) = occupied_world_box(occ, xf);
+    let (dir, up) = axes.view(crate::camera::ViewPreset::Iso);
+    Camera::framing(lo, hi, dir, up, Some(35.0), width, height)
+}
+
+/// World box of the occupied voxels' cubes (the whole grid if none).
+pub fn occupied_world_box(occ: &OccupancyGrid, xf: &GridTransform) -> (DVec3, DVec3) {
+    match occ.bounds() {
+        Some((a, b)) => xf.world_bounds(a.as_dvec3() - 0.5, b.as_dvec3() + 0.5),
+        None => xf.world_bounds(
+            DVec3::splat(-0.5),
+            DVec3::from_array(occ.dims().map(|d| d as f64)) - 0.5,
+        ),
+    }
 }
 
 /// The first occupied voxel along a grid-space segment for a ray kind (the

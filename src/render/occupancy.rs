@@ -23,6 +23,10 @@ use crate::error::Result;
 use crate::grid::brick::BrickMask;
 use crate::grid::{BrickGrid, MemoryLimit, Voxel};
 
+/// Largest grid side the ray caster takes: every in-grid segment is then
+/// shorter than 2^15 voxels, where its O(1) jumps are exact in `i64`.
+pub const MAX_RENDER_DIM: usize = 16384;
+
 /// `x` bits of column `lx = 0` / `lx = 7` in a brick word (bit `lx + 8 ly`).
 const X0: u64 = 0x0101_0101_0101_0101;
 const X7: u64 = 0x8080_8080_8080_8080;
@@ -72,6 +76,11 @@ impl OccupancyGrid {
     /// assert_eq!(occ.brick_distance(IVec3::new(35, 0, 0)), 4);
     /// ```
     pub fn new(grid: &BrickGrid, dims: [usize; 3], limit: MemoryLimit) -> Result<Self> {
+        if dims.iter().any(|&d| d == 0 || d > MAX_RENDER_DIM) {
+            return Err(crate::error::VoxkitError::Unsupported(format!(
+                "render: grid {dims:?}: each side must be in 1..={MAX_RENDER_DIM} voxels"
+            )));
+        }
         grid.check_inside(dims)?;
         let bdims = dims.map(|d| d.div_ceil(8) as i32);
         let cells: u128 = bdims.iter().map(|&b| b as u128).product();
