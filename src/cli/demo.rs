@@ -181,7 +181,13 @@ fn render_demo(
     let occ = OccupancyGrid::new(&v.grid, v.frame.dims, MemoryLimit::DEFAULT)?;
     let prepare_ms = t.elapsed().as_secs_f64() * 1e3;
     let xf = GridTransform::from_frame(&v.frame)?;
-    let cam = default_camera(&occ, &xf, &crate::camera::SceneAxes::Y_UP, w, h)?;
+    // Spot looks down −Z: the three-quarter view of her face.
+    let axes = crate::camera::SceneAxes {
+        up: glam::DVec3::Y,
+        front: glam::DVec3::NEG_Z,
+        right: glam::DVec3::NEG_X,
+    };
+    let cam = default_camera(&occ, &xf, &axes, w, h)?;
     let opts = RenderOptions {
         width: w,
         height: h,
