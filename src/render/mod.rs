@@ -20,10 +20,16 @@
 //! voxel's cube (world units along the ray, `+∞` for misses); the face
 //! normal is that entry face's, the smooth normal the gradient of the
 //! occupancy around the hit. Shading: Lambert from a headlight plus ambient.
+//!
+//! Scalar volumes ([`render_volume`], module [`volume`]): maximum intensity
+//! projection, front-to-back compositing through a transfer function, and
+//! iso-surfaces, over the same per-pixel segments and ray kinds, with
+//! brick-level skipping that changes no pixel.
 
 mod cast;
 pub mod measure;
 mod occupancy;
+pub mod volume;
 
 use std::time::Instant;
 
@@ -31,6 +37,10 @@ use glam::{DMat3, DVec3, IVec3};
 use rayon::prelude::*;
 
 pub use occupancy::{MAX_RENDER_DIM, OccupancyGrid};
+pub use volume::{
+    BrickRange, EARLY_TERMINATION, RAMP_OPACITY, Sampling, TfPoint, TransferFunction, VolumeMode,
+    VolumeOptions, VolumeScene, differing_values, render_volume,
+};
 
 use crate::camera::Camera;
 use crate::error::{Result, VoxkitError};

@@ -1,0 +1,1389 @@
+//! Scalar volumes in the discrete ray caster: maximum intensity projection,
+//! front-to-back compositing through a transfer function, and iso-surfaces
+//! ([`render_volume`]).
+//!
+//! Every pixel casts one discrete ray over the *same* fixed-point segment
+//! for every [`RayKind`] (the camera ray clipped strictly inside the volume
+//! box, exactly as [`super::render_grid`] does), so images differ only by
+//! which voxels the kinds visit. A visited voxel contributes its *sample*:
+//! the voxel's value ([`Sampling::Nearest`]) or the trilinear value at the
+//! midpoint of the ray's stretch in the voxel ([`Sampling::Trilinear`]).
+//!
+//! # The ray's stretch in a voxel
+//! Positions along a ray are world distances `t` from its origin (the eye,
+//! or the eye plane for orthographic cameras); `[t0, t1]` is the ray's way
+//! through the volume (the hull of the voxel cubes, from `t = 0` on). The stretch of a visited voxel is
+//! - for the 6-ray, the adaptive ray and Amanatides–Woo: the chord of the
+//!   continuous ray through the voxel's cube (entry to exit, clipped to
+//!   `[t0, t1]`). For the 6-ray the chords of the visited voxels tile
+//!   `[t0, t1]`;
+//! - for the 26-ray, which visits one voxel per column along the major axis
+//!   `m`: the ray's stretch through the voxel's *column* (the slab
+//!   `|g_m − v_m| ≤ ½`, clipped to `[t0, t1]`), so the visited voxels again
+//!   tile the ray; where the 26-line holds two voxels of one column (at its
+//!   ends) the second one gets an empty stretch.
+//!
+//! The trilinear sample point is the stretch's midpoint clamped to the
+//! voxel's cube, so a sample lies between the minimum and the maximum of
+//! the voxel's 3×3×3 neighbourhood (the bricks' aprons below rely on it).
+//!
+//! # Modes
+//! - [`VolumeMode::Mip`]: the largest sample along the ray. The pixel is
+//!   the grey level of that maximum through the window,
+//!   `g = clamp((s − lo) / (hi − lo), 0, 1)`, alpha 1 wherever the ray
+//!   crosses the volume. `hit` is the first visited voxel holding the
+//!   maximum if it exceeds the window's low end (`None` otherwise: nothing
+//!   on the ray is visible), `depth` the distance at which the ray enters
+//!   that voxel's cube. With the 6-ray this is exactly the maximum over the
+//!   voxels the ray passes through.
+//! - [`VolumeMode::Composite`]: front-to-back alpha compositing. A visited
+//!   voxel with sample `s` and stretch length `ℓ` (world units) has opacity
+//!   `α = 1 − (1 − τ(s))^(ℓ / ℓ_ref)`, where `τ` is the transfer function's
+//!   opacity, defined as the opacity of a stretch of the *reference length*
+//!   `ℓ_ref = ∛|det A|` (`A` the volume's axes: the edge of a cube with the
+//!   voxel's volume, i.e. the spacing for cubic voxels), and colour the
+//!   transfer function's (or, without colours, the window's grey of `s`).
+//!   `C += (1 − A)·α·colour`, `A += (1 − A)·α`, stopping once `A ≥ 0.99`.
+//!   The pixel is `(C / A, A)`; `hit`/`depth` are the first voxel with
+//!   `α > 0`.
+//! - [`VolumeMode::Iso`]`(V)`: the first visited voxel whose sample is
+//!   `≥ V`, shaded like [`super::render_grid`]'s hits (Lambert from a
+//!   headlight plus ambient): face normals are the entry face's, smooth
+//!   normals the negated value gradient by central differences at the voxel
+//!   (one-sided at the volume's border).
+//!
+//! NaN samples are stored as `−∞`: they never hold a maximum, never reach
+//! an iso value, and take the transfer function's opacity at its lowest
+//! point.
+//!
+//! # Skipping and adaptive flags
+//! [`VolumeScene`] keeps per 8³ brick the minimum and maximum of the values
+//! over the brick and over the brick grown by one and two voxels (its
+//! *aprons*). Per frame each brick is classified, with `r = 0` for nearest
+//! and `r = 1` for trilinear samples (whose range in a brick is that of the
+//! brick grown by one voxel):
+//! - *skippable*: no sample in it can change the pixel — MIP: max over
+//!   `r` ≤ window low; iso: max over `r` `< V`; composite: the transfer
+//!   function's opacity is 0 on `[min, max]` over `r`;
+//! - *flagged* (the adaptive ray's proximity flags, constant per brick): the
+//!   same test over `r + 1` fails. Flagged bricks hold the one-voxel
+//!   dilation of every voxel whose sample can matter, so the adaptive ray
+//!   (26-steps only from unflagged voxels) visits every voxel that matters
+//!   on the 6-ray's path, in order, with the same sample: its MIP, iso hit
+//!   and composite equal the 6-ray's.
+//!
+//! A Chebyshev distance transform over the bricks (Cohen & Sheffer's
+//! proximity clouds) lets a ray jump, in O(1) (the line core's `jump`,
+//! [`AwStepper::jump_past_box`]), the whole box of skippable bricks around
+//! its brick; the adaptive ray in 26 mode jumps only boxes of unflagged
+//! bricks (where stepping would stay in 26 mode). MIP also jumps any brick
+//! whose maximum does not exceed the running maximum. Skipped voxels
+//! contribute nothing and every voxel's contribution depends only on the
+//! voxel and the ray, so skipping changes no pixel, for every ray kind.
+
+use std::time::Instant;
+
+use glam::{DVec3, IVec3};
+use rayon::prelude::*;
+
+use crate::camera::Camera;
+use crate::error::{Result, VoxkitError};
+use crate::grid::{DenseGrid, MemoryLimit, ScalarVolume};
+use crate::line::Segment;
+use crate::line::adaptive::{Core, RayMode};
+use crate::line::amanatides_woo::AwStepper;
+use crate::line::segment::Frame;
+
+use super::cast::CastCounters;
+use super::occupancy::chessboard_distance;
+use super::{
+    GridRay, GridTransform, NormalMode, RayKind, RaySetup, RenderImage, RenderOptions, RenderStats,
+    camera_check, check_image,
+};
+
+/// Brick edge in voxels.
+const BRICK: i32 = 8;
+
+/// Compositing stops once the accumulated opacity reaches this.
+pub const EARLY_TERMINATION: f32 = 0.99;
+
+/// Opacity at the window's high end of [`TransferFunction::ramp`] (the
+/// opacity of one reference length of the brightest material).
+pub const RAMP_OPACITY: f32 = 0.1;
+
+/// Value ranges of one 8³ brick: `min[r]`, `max[r]` over the brick grown by
+/// `r` voxels on every side (clipped to the volume), `r = 0, 1, 2`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BrickRange {
+    /// Smallest value over the brick grown by `r` voxels.
+    pub min: [f32; 3],
+    /// Largest value over the brick grown by `r` voxels.
+    pub max: [f32; 3],
+}
+
+/// A scalar volume prepared for [`render_volume`]: its values as `f32`
+/// (x fastest, NaN stored as `−∞`), its placement in the world, and the
+/// value ranges of its 8³ bricks and their aprons (see the
+/// [module docs](self)).
+#[derive(Clone, Debug)]
+pub struct VolumeScene {
+    values: DenseGrid<f32>,
+    xf: GridTransform,
+    /// Bricks per axis.
+    bdims: [i32; 3],
+    bricks: Vec<BrickRange>,
+    /// `∛|det axes|`: the reference length of the opacity correction.
+    ref_len: f64,
+}
+
+impl VolumeScene {
+    /// Converts `volume` to `f32` and computes the brick ranges; `limit`
+    /// caps the values and the brick table together (checked before
+    /// allocating).
+    ///
+    /// ```
+    /// use glam::{DVec3, IVec3};
+    /// use voxkit::grid::{MemoryLimit, ScalarVolume, VolumeData, VolumeFrame};
+    /// use voxkit::render::VolumeScene;
+    /// let data: Vec<f32> = (0..1000).map(|i| i as f32).collect();
+    /// let vol = ScalarVolume::new([10, 10, 10], VolumeData::F32(data), VolumeFrame::default()).unwrap();
+    /// let scene = VolumeScene::new(&vol, MemoryLimit::DEFAULT).unwrap();
+    /// assert_eq!(scene.value(IVec3::new(1, 2, 3)), Some(321.0));
+    /// // Brick (1, 0, 0) holds x = 8..9, y, z = 0..7: values 8 ..= 779.
+    /// let r = scene.brick_range(IVec3::new(1, 0, 0)).unwrap();
+    /// assert_eq!((r.min[0], r.max[0]), (8.0, 779.0));
+    /// // With a one-voxel apron: x = 7..9, y, z = 0..8.
+    /// assert_eq!((r.min[1], r.max[1]), (7.0, 889.0));
+    /// ```
+    pub fn new(volume: &ScalarVolume, limit: MemoryLimit) -> Result<Self> {
+        let dims = volume.dims;
+        let bdims = dims.map(|d| d.div_ceil(BRICK as usize) as i32);
+        let nb: u128 = bdims.iter().map(|&b| b as u128).product();
+        let bytes = volume.len() as u128 * 4 + nb * std::mem::size_of::<BrickRange>() as u128;
+        limit.check("volume render structures", bytes, 1)?;
+        let xf = GridTransform::new(volume.frame.origin, volume.frame.axes)?;
+        let mut values = volume.to_f32(limit)?;
+        values.as_mut_slice().par_iter_mut().for_each(|x| {
+            if x.is_nan() {
+                *x = f32::NEG_INFINITY;
+            }
+        });
+        let bricks = brick_ranges(&values, bdims);
+        Ok(VolumeScene {
+            values,
+            xf,
+            bdims,
+            bricks,
+            ref_len: volume.frame.axes.determinant().abs().cbrt(),
+        })
+    }
+
+    /// Extents in voxels.
+    pub fn dims(&self) -> [usize; 3] {
+        self.values.dims()
+    }
+
+    /// The values (`f32`, x fastest, NaN stored as `−∞`).
+    pub fn values(&self) -> &DenseGrid<f32> {
+        &self.values
+    }
+
+    /// The value of voxel `v`, `None` outside the volume.
+    pub fn value(&self, v: IVec3) -> Option<f32> {
+        self.values.get(v).copied()
+    }
+
+    /// Where the volume sits in the world.
+    pub fn transform(&self) -> &GridTransform {
+        &self.xf
+    }
+
+    /// The reference length of the opacity correction in world units:
+    /// `∛|det axes|` (see the [module docs](self)).
+    pub fn reference_length(&self) -> f64 {
+        self.ref_len
+    }
+
+    /// The value ranges of brick `b` (brick coordinates: voxel `>> 3`),
+    /// `None` outside the volume.
+    pub fn brick_range(&self, b: IVec3) -> Option<BrickRange> {
+        ((0..3).all(|k| b[k] >= 0 && b[k] < self.bdims[k]))
+            .then(|| self.bricks[self.brick_index(b)])
+    }
+
+    /// Bytes held: the values and the brick table.
+    pub fn heap_bytes(&self) -> usize {
+        self.values.len() * 4 + self.bricks.capacity() * std::mem::size_of::<BrickRange>()
+    }
+
+    #[inline(always)]
+    fn brick_index(&self, b: IVec3) -> usize {
+        (b.x + self.bdims[0] * (b.y + self.bdims[1] * b.z)) as usize
+    }
+
+    #[inline(always)]
+    fn index(&self, v: IVec3) -> usize {
+        self.values.linear_index_unchecked(v)
+    }
+}
+
+/// Per brick, the value ranges over the brick grown by 0, 1 and 2 voxels:
+/// each brick reads the rows of its 2-voxel apron once, each row giving
+/// the ranges of its three nested x-extents, which the rows' ring (how far
+/// outside the brick in y and z) assigns to the aprons.
+fn brick_ranges(values: &DenseGrid<f32>, bdims: [i32; 3]) -> Vec<BrickRange> {
+    let dims = values.dims().map(|d| d as i32);
+    let vals = values.as_slice();
+    let layer = (bdims[0] * bdims[1]) as usize;
+    let mut out = vec![
+        BrickRange {
+            min: [f32::INFINITY; 3],
+            max: [f32::NEG_INFINITY; 3],
+        };
+        layer * bdims[2] as usize
+    ];
+    out.par_chunks_mut(layer)
+        .enumerate()
+        .for_each(|(bz, slab)| {
+            for by in 0..bdims[1] {
+                for bx in 0..bdims[0] {
+                    let b = IVec3::new(bx, by, bz as i32);
+                    let lo = b * BRICK;
+                    let hi = (lo + (BRICK - 1)).min(IVec3::from_array(dims) - 1);
+                    let r = &mut slab[(bx + bdims[0] * by) as usize];
+                    for z in (lo.z - 2).max(0)..=(hi.z + 2).min(dims[2] - 1) {
+                        let rz = (lo.z - z).max(z - hi.z).max(0);
+                        for y in (lo.y - 2).max(0)..=(hi.y + 2).min(dims[1] - 1) {
+                            let ring = (lo.y - y).max(y - hi.y).max(rz) as usize;
+                            let row = (dims[0] * (y + dims[1] * z)) as usize;
+                            let rows = row_ranges(vals, row, lo.x, hi.x, dims[0]);
+                            for k in ring..3 {
+                                r.min[k] = r.min[k].min(rows.0[k]);
+                                r.max[k] = r.max[k].max(rows.1[k]);
+                            }
+                        }
+                    }
+                }
+            }
+        });
+    out
+}
+
+/// Min and max of a row's x-extents `[lo − r, hi + r]` (clipped), r = 0..2.
+#[inline]
+fn row_ranges(vals: &[f32], row: usize, lo: i32, hi: i32, nx: i32) -> ([f32; 3], [f32; 3]) {
+    let inner = &vals[row + lo as usize..=row + hi as usize];
+    let mut mn = inner.iter().copied().fold(f32::INFINITY, f32::min);
+    let mut mx = inner.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    let mut out = ([mn; 3], [mx; 3]);
+    for r in 1..3 {
+        for x in [lo - r, hi + r] {
+            if x >= 0 && x < nx {
+                let s = vals[row + x as usize];
+                mn = mn.min(s);
+                mx = mx.max(s);
+            }
+        }
+        out.0[r as usize] = mn;
+        out.1[r as usize] = mx;
+    }
+    out
+}
+
+/// What a volume render shows (`--volume`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum VolumeMode {
+    /// Maximum intensity projection.
+    Mip,
+    /// Front-to-back compositing through the transfer function.
+    Composite,
+    /// The iso-surface at this value: the first sample `≥` it, shaded.
+    Iso(f32),
+}
+
+/// How a visited voxel is sampled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Sampling {
+    /// The voxel's value.
+    Nearest,
+    /// Trilinear from the 8 voxel centres around the midpoint of the ray's
+    /// stretch in the voxel (clamped at the volume's border).
+    Trilinear,
+}
+
+/// One point of a [`TransferFunction`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TfPoint {
+    /// Sample value.
+    pub value: f32,
+    /// Opacity of one reference length at this value, in `[0, 1]`.
+    pub opacity: f32,
+    /// Linear RGB in `[0, 1]`, if given.
+    pub color: Option<[f32; 3]>,
+}
+
+/// A piecewise linear map from sample values to opacity (and optionally
+/// colour), constant beyond its first and last points. Colours interpolate
+/// between the points that have one; without any, compositing uses the
+/// window's grey.
+///
+/// ```
+/// use voxkit::render::TransferFunction;
+/// let tf = TransferFunction::parse("0:0, 100:0.5:#ff0000, 200:1:#0000ff").unwrap();
+/// assert_eq!(tf.opacity(50.0), 0.25);
+/// assert_eq!(tf.opacity(-7.0), 0.0);
+/// assert_eq!(tf.opacity(1e9), 1.0);
+/// assert_eq!(tf.color(150.0), Some([0.5, 0.0, 0.5]));
+/// assert_eq!(tf.max_opacity(-5.0, 20.0), 0.1);
+/// assert!(TransferFunction::parse("5:0.1,1:0.2").is_err()); // not sorted
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct TransferFunction {
+    points: Vec<TfPoint>,
+    /// The points that have a colour: `(value, rgb)`.
+    colored: Vec<(f32, [f32; 3])>,
+}
+
+impl TransferFunction {
+    /// A transfer function from points sorted by value (equal values make a
+    /// step); `Invalid` if there are none, a value is not finite, an
+    /// opacity or colour component is outside `[0, 1]`, or the values
+    /// decrease.
+    pub fn new(points: Vec<TfPoint>) -> Result<Self> {
+        if points.is_empty() {
+            return Err(VoxkitError::invalid("transfer function: no points"));
+        }
+        for (i, p) in points.iter().enumerate() {
+            let unit = |x: f32| (0.0..=1.0).contains(&x);
+            if !p.value.is_finite()
+                || !unit(p.opacity)
+                || p.color.is_some_and(|c| !c.iter().all(|&x| unit(x)))
+            {
+                return Err(VoxkitError::invalid(format!(
+                    "transfer function point {i}: value must be finite, opacity and colour in [0, 1] (got {p:?})"
+                )));
+            }
+            if i > 0 && p.value < points[i - 1].value {
+                return Err(VoxkitError::invalid(format!(
+                    "transfer function: values must not decrease ({} after {})",
+                    p.value,
+                    points[i - 1].value
+                )));
+            }
+        }
+        let colored = points
+            .iter()
+            .filter_map(|p| p.color.map(|c| (p.value, c)))
+            .collect();
+        Ok(TransferFunction { points, colored })
+    }
+
+    /// Parses `v:o[:#rrggbb],...` (value, opacity, optional hex colour per
+    /// point; whitespace around items is ignored).
+    pub fn parse(s: &str) -> Result<Self> {
+        let bad = |item: &str, why: &str| {
+            VoxkitError::invalid(format!(
+                "transfer function item '{item}': {why} (expected value:opacity[:#rrggbb])"
+            ))
+        };
+        let mut points = Vec::new();
+        for item in s.split(',') {
+            let item = item.trim();
+            let parts: Vec<&str> = item.split(':').map(str::trim).collect();
+            if !(2..=3).contains(&parts.len()) {
+                return Err(bad(item, "wrong number of fields"));
+            }
+            let value: f32 = parts[0].parse().map_err(|_| bad(item, "bad value"))?;
+            let opacity: f32 = parts[1].parse().map_err(|_| bad(item, "bad opacity"))?;
+            let color = match parts.get(2) {
+                None => None,
+                Some(c) => {
+                    let hex = c
+                        .strip_prefix('#')
+                        .filter(|h| h.len() == 6 && h.chars().all(|ch| ch.is_ascii_hexdigit()))
+                        .ok_or_else(|| bad(item, "colour must be #rrggbb"))?;
+                    let byte = |i: usize| {
+                        u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).unwrap() as f32 / 255.0
+                    };
+                    Some([byte(0), byte(1), byte(2)])
+                }
+            };
+            points.push(TfPoint {
+                value,
+                opacity,
+                color,
+            });
+        }
+        Self::new(points)
+    }
+
+    /// The default: opacity rising linearly from 0 at `window.0` to
+    /// [`RAMP_OPACITY`] at `window.1`, no colours (grey through the window).
+    pub fn ramp(window: (f32, f32)) -> Self {
+        let p = |value, opacity| TfPoint {
+            value,
+            opacity,
+            color: None,
+        };
+        TransferFunction {
+            points: vec![p(window.0, 0.0), p(window.1.max(window.0), RAMP_OPACITY)],
+            colored: Vec::new(),
+        }
+    }
+
+    /// The points.
+    pub fn points(&self) -> &[TfPoint] {
+        &self.points
+    }
+
+    /// Opacity at sample `s` (the first point's below it, the last's above;
+    /// `−∞` takes the first point's).
+    #[inline]
+    pub fn opacity(&self, s: f32) -> f32 {
+        let p = &self.points;
+        let j = p.partition_point(|q| q.value <= s);
+        if j == 0 {
+            return p[0].opacity;
+        }
+        if j == p.len() {
+            return p[j - 1].opacity;
+        }
+        let (a, b) = (&p[j - 1], &p[j]);
+        let t = (s - a.value) / (b.value - a.value);
+        a.opacity + t * (b.opacity - a.opacity)
+    }
+
+    /// Colour at sample `s`, interpolated between the points that have one;
+    /// `None` if none has.
+    #[inline]
+    pub fn color(&self, s: f32) -> Option<[f32; 3]> {
+        let c = &self.colored;
+        if c.is_empty() {
+            return None;
+        }
+        let j = c.partition_point(|q| q.0 <= s);
+        if j == 0 {
+            return Some(c[0].1);
+        }
+        if j == c.len() {
+            return Some(c[j - 1].1);
+        }
+        let ((va, ca), (vb, cb)) = (c[j - 1], c[j]);
+        let t = (s - va) / (vb - va);
+        Some(std::array::from_fn(|k| ca[k] + t * (cb[k] - ca[k])))
+    }
+
+    /// The largest opacity over the samples in `[lo, hi]` (`lo ≤ hi`): at
+    /// the ends or at a point between them.
+    pub fn max_opacity(&self, lo: f32, hi: f32) -> f32 {
+        self.points
+            .iter()
+            .filter(|p| p.value > lo && p.value < hi)
+            .map(|p| p.opacity)
+            .fold(self.opacity(lo).max(self.opacity(hi)), f32::max)
+    }
+}
+
+/// Options of [`render_volume`] (the rest is in [`RenderOptions`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct VolumeOptions {
+    /// What to show.
+    pub mode: VolumeMode,
+    /// Values mapped to black and white (MIP grey, compositing's grey
+    /// colours), `lo < hi`; MIP shows nothing at or below `lo`.
+    pub window: (f32, f32),
+    /// Opacity and colour for compositing (iso takes its colour, if it has
+    /// one, at the iso value).
+    pub transfer: TransferFunction,
+    /// How visited voxels are sampled.
+    pub sampling: Sampling,
+}
+
+impl VolumeOptions {
+    /// `mode` with the default window ([`VolumeOptions::default_window`]),
+    /// the default ramp over it ([`TransferFunction::ramp`]) and nearest
+    /// sampling.
+    pub fn new(volume: &ScalarVolume, mode: VolumeMode) -> Self {
+        let window = Self::default_window(volume);
+        VolumeOptions {
+            mode,
+            window,
+            transfer: TransferFunction::ramp(window),
+            sampling: Sampling::Nearest,
+        }
+    }
+
+    /// The 1% and 99.5% percentiles of the finite samples; if they are
+    /// equal (`v`), `(v − ½, v + ½)`; without finite samples `(0, 1)`.
+    ///
+    /// ```
+    /// use voxkit::grid::{ScalarVolume, VolumeData, VolumeFrame};
+    /// use voxkit::render::VolumeOptions;
+    /// let data: Vec<u16> = (0..=1000).collect();
+    /// let vol = ScalarVolume::new([1001, 1, 1], VolumeData::U16(data), VolumeFrame::default()).unwrap();
+    /// assert_eq!(VolumeOptions::default_window(&vol), (10.0, 995.0));
+    /// ```
+    pub fn default_window(volume: &ScalarVolume) -> (f32, f32) {
+        let p = volume.percentiles(&[1.0, 99.5]);
+        let (lo, hi) = (p[0] as f32, p[1] as f32);
+        if !(lo.is_finite() && hi.is_finite()) {
+            (0.0, 1.0)
+        } else if lo < hi {
+            (lo, hi)
+        } else {
+            (lo - 0.5, lo + 0.5)
+        }
+    }
+
+    fn validate(&self) -> Result<()> {
+        let (lo, hi) = self.window;
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(VoxkitError::invalid(format!(
+                "volume window {lo},{hi}: need finite low < high"
+            )));
+        }
+        if let VolumeMode::Iso(v) = self.mode
+            && !v.is_finite()
+        {
+            return Err(VoxkitError::invalid(format!("iso value {v} is not finite")));
+        }
+        Ok(())
+    }
+}
+
+/// Pixels whose colour (RGBA, bit for bit) differs between two images of
+/// the same size: e.g. the MIP pixels of a ray kind that differ from the
+/// 6-ray's.
+pub fn differing_values(a: &RenderImage, b: &RenderImage) -> u64 {
+    a.color
+        .iter()
+        .zip(&b.color)
+        .filter(|(x, y)| x.map(f32::to_bits) != y.map(f32::to_bits))
+        .count() as u64
+}
+
+/// Per brick, per frame: proximity-cloud distances (in bricks) to the
+/// nearest brick that is not skippable (`skip`) and to the nearest flagged
+/// brick (`flag`; 0: this brick is flagged). Without skipping both are only
+/// 0 or 1.
+#[derive(Clone, Copy, Debug, Default)]
+struct BrickClass {
+    skip: u8,
+    flag: u8,
+}
+
+/// Everything a frame's rays share.
+struct FrameCtx<'a> {
+    scene: &'a VolumeScene,
+    vopts: &'a VolumeOptions,
+    opts: &'a RenderOptions,
+    setup: RaySetup,
+    class: Vec<BrickClass>,
+    strides: [isize; 3],
+    dims: [i32; 3],
+    /// Brick ranges index: 0 nearest, 1 trilinear.
+    r: usize,
+}
+
+impl<'a> FrameCtx<'a> {
+    fn new(
+        scene: &'a VolumeScene,
+        camera: &Camera,
+        opts: &'a RenderOptions,
+        vopts: &'a VolumeOptions,
+    ) -> Self {
+        let dims = scene.dims().map(|d| d as i32);
+        let setup = RaySetup::new(
+            camera,
+            &scene.xf,
+            Some((IVec3::ZERO, IVec3::from_array(dims) - 1)),
+            opts.width,
+            opts.height,
+        );
+        let r = usize::from(vopts.sampling == Sampling::Trilinear);
+        // Whether no sample over the bricks' range `r` can matter.
+        let quiet = |b: &BrickRange, r: usize| -> bool {
+            match vopts.mode {
+                VolumeMode::Mip => b.max[r] <= vopts.window.0,
+                VolumeMode::Iso(v) => b.max[r] < v,
+                VolumeMode::Composite => vopts.transfer.max_opacity(b.min[r], b.max[r]) == 0.0,
+            }
+        };
+        let bricks = &scene.bricks;
+        let class = if opts.skip {
+            let skip = chessboard_distance(scene.bdims, |i| !quiet(&bricks[i], r));
+            let flag = if opts.ray == RayKind::Adaptive {
+                chessboard_distance(scene.bdims, |i| !quiet(&bricks[i], r + 1))
+            } else {
+                vec![0; bricks.len()]
+            };
+            skip.into_iter()
+                .zip(flag)
+                .map(|(skip, flag)| BrickClass { skip, flag })
+                .collect()
+        } else {
+            bricks
+                .par_iter()
+                .map(|b| BrickClass {
+                    skip: 0,
+                    flag: u8::from(quiet(b, r + 1)),
+                })
+                .collect()
+        };
+        FrameCtx {
+            scene,
+            vopts,
+            opts,
+            setup,
+            class,
+            strides: scene.values.strides(),
+            dims,
+            r,
+        }
+    }
+}
+
+/// A pixel ray's continuous geometry, for stretches and sample points.
+#[derive(Clone, Copy)]
+struct RayGeom {
+    o: [f64; 3],
+    d: [f64; 3],
+    /// `1 / d` (0 where `d` is 0: those axes do not bound a stretch).
+    inv: [f64; 3],
+    t0: f64,
+    t1: f64,
+}
+
+impl RayGeom {
+    /// The geometry of `ray`, clipped to the volume's box of `dims` voxels
+    /// (the cubes' hull, not the walks' inset box: the 6-ray's chords tile
+    /// the ray's whole way through the volume).
+    fn new(ray: &GridRay, dims: [i32; 3]) -> Self {
+        let hi = IVec3::from_array(dims).as_dvec3() - 0.5;
+        let (t0, t1) = ray.clip(DVec3::splat(-0.5), hi).unwrap_or((0.0, 0.0));
+        let d = ray.d.to_array();
+        RayGeom {
+            o: ray.o.to_array(),
+            d,
+            inv: d.map(|x| if x == 0.0 { 0.0 } else { 1.0 / x }),
+            t0,
+            t1,
+        }
+    }
+
+    /// The `t` interval where coordinate `k` lies in `[c − ½, c + ½]`
+    /// (everything if the ray is parallel to that slab).
+    #[inline(always)]
+    fn slab(&self, k: usize, c: i32) -> (f64, f64) {
+        if self.inv[k] == 0.0 {
+            return (f64::NEG_INFINITY, f64::INFINITY);
+        }
+        let a = (c as f64 - 0.5 - self.o[k]) * self.inv[k];
+        let b = (c as f64 + 0.5 - self.o[k]) * self.inv[k];
+        (a.min(b), a.max(b))
+    }
+
+    /// The chord through voxel `v`'s cube, clipped to `[t0, t1]` (possibly
+    /// empty: `t_in > t_out`).
+    #[inline(always)]
+    fn chord(&self, v: IVec3) -> (f64, f64) {
+        let (mut a, mut b) = (self.t0, self.t1);
+        for k in 0..3 {
+            let (p, q) = self.slab(k, v[k]);
+            a = a.max(p);
+            b = b.min(q);
+        }
+        (a, b)
+    }
+
+    /// The stretch through the slab of column `c` of axis `k`, clipped.
+    #[inline(always)]
+    fn column(&self, k: usize, c: i32) -> (f64, f64) {
+        let (p, q) = self.slab(k, c);
+        (self.t0.max(p), self.t1.min(q))
+    }
+
+    /// The stretch's midpoint, clamped to voxel `v`'s cube.
+    #[inline(always)]
+    fn sample_point(&self, v: IVec3, (a, b): (f64, f64)) -> [f64; 3] {
+        let t = 0.5 * (a + b);
+        std::array::from_fn(|k| {
+            let c = v[k] as f64;
+            (self.o[k] + self.d[k] * t).clamp(c - 0.5, c + 0.5)
+        })
+    }
+}
+
+/// `a·(1 − t) + b·t` for `t ∈ [0, 1]`, where a corner of weight 0 does not
+/// count even if it is `−∞`, and `+∞` against `−∞` gives `−∞`.
+#[inline(always)]
+fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    let r = a * (1.0 - t) + b * t;
+    if r.is_nan() {
+        if t <= 0.0 {
+            a
+        } else if t >= 1.0 {
+            b
+        } else {
+            f32::NEG_INFINITY
+        }
+    } else {
+        r
+    }
+}
+
+/// Trilinear value at grid point `p` (inside voxel `v`'s cube, `v` at
+/// linear index `idx`) from the 8 voxel centres around it, clamped at the
+/// volume's border: the corner offsets come from `idx` and the strides.
+#[inline(always)]
+fn trilinear(vals: &[f32], ctx: &FrameCtx, v: IVec3, idx: usize, p: [f64; 3]) -> f32 {
+    let mut base = idx as isize;
+    let mut step = [0isize; 3];
+    let mut w = [0f32; 3];
+    for k in 0..3 {
+        let dk = p[k] - v[k] as f64;
+        if dk >= 0.0 {
+            if v[k] + 1 < ctx.dims[k] {
+                step[k] = ctx.strides[k];
+                w[k] = dk as f32;
+            }
+        } else if v[k] > 0 {
+            base -= ctx.strides[k];
+            step[k] = ctx.strides[k];
+            w[k] = (1.0 + dk) as f32;
+        }
+    }
+    let b = base as usize;
+    let at = |o: isize| vals[b.wrapping_add_signed(o)];
+    let [sx, sy, sz] = step;
+    let x00 = lerp(at(0), at(sx), w[0]);
+    let x10 = lerp(at(sy), at(sy + sx), w[0]);
+    let x01 = lerp(at(sz), at(sz + sx), w[0]);
+    let x11 = lerp(at(sz + sy), at(sz + sy + sx), w[0]);
+    lerp(lerp(x00, x10, w[1]), lerp(x01, x11, w[1]), w[2])
+}
+
+/// What a mode does with the visited voxels of one ray.
+trait Accum {
+    /// Whether `visit` needs the stretch length.
+    const LEN: bool;
+    /// Takes a visited voxel's sample and stretch length (world units);
+    /// `true` ends the ray.
+    fn visit(&mut self, v: IVec3, s: f32, len: f64) -> bool;
+    /// Whether a brick whose samples lie in `[lo, hi]` can be jumped now,
+    /// beyond the frame's static classification.
+    #[inline(always)]
+    fn brick_done(&self, _lo: f32, _hi: f32) -> bool {
+        false
+    }
+}
+
+/// MIP: the running maximum (starting at the window's low end) and the
+/// first voxel holding it.
+struct Mip {
+    m: f32,
+    hit: Option<IVec3>,
+}
+
+impl Accum for Mip {
+    const LEN: bool = false;
+    #[inline(always)]
+    fn visit(&mut self, v: IVec3, s: f32, _len: f64) -> bool {
+        if s > self.m {
+            self.m = s;
+            self.hit = Some(v);
+        }
+        false
+    }
+    #[inline(always)]
+    fn brick_done(&self, _lo: f32, hi: f32) -> bool {
+        hi <= self.m
+    }
+}
+
+/// Iso: the first voxel with a sample `≥ v`.
+struct Iso {
+    v: f32,
+    hit: Option<IVec3>,
+}
+
+impl Accum for Iso {
+    const LEN: bool = false;
+    #[inline(always)]
+    fn visit(&mut self, v: IVec3, s: f32, _len: f64) -> bool {
+        if s >= self.v {
+            self.hit = Some(v);
+            return true;
+        }
+        false
+    }
+}
+
+/// Compositing: premultiplied colour, opacity, first contributing voxel.
+struct Composite<'a> {
+    tf: &'a TransferFunction,
+    window: (f32, f32),
+    inv_ref: f64,
+    c: [f32; 3],
+    a: f32,
+    hit: Option<IVec3>,
+}
+
+impl Accum for Composite<'_> {
+    const LEN: bool = true;
+    #[inline(always)]
+    fn visit(&mut self, v: IVec3, s: f32, len: f64) -> bool {
+        let tau = self.tf.opacity(s);
+        if tau <= 0.0 {
+            return false;
+        }
+        let alpha = 1.0 - (1.0 - tau).powf((len * self.inv_ref) as f32);
+        if alpha <= 0.0 {
+            return false;
+        }
+        if self.hit.is_none() {
+            self.hit = Some(v);
+        }
+        let col = self
+            .tf
+            .color(s)
+            .unwrap_or_else(|| [grey(s, self.window); 3]);
+        let w = (1.0 - self.a) * alpha;
+        for (ck, k) in self.c.iter_mut().zip(col) {
+            *ck += w * k;
+        }
+        self.a += w;
+        self.a >= EARLY_TERMINATION
+    }
+}
+
+/// The window's grey level of `s`.
+#[inline]
+fn grey(s: f32, (lo, hi): (f32, f32)) -> f32 {
+    ((s - lo) / (hi - lo)).clamp(0.0, 1.0)
+}
+
+/// Ray kinds as const parameters.
+const K6: u8 = 0;
+const K26: u8 = 1;
+const KAD: u8 = 2;
+
+/// Samples visited voxel `v` (linear index `idx`) given its stretch.
+#[inline(always)]
+fn sample<const TRI: bool>(
+    ctx: &FrameCtx,
+    vals: &[f32],
+    g: &RayGeom,
+    v: IVec3,
+    idx: usize,
+    st: (f64, f64),
+) -> f32 {
+    if TRI {
+        trilinear(vals, ctx, v, idx, g.sample_point(v, st))
+    } else {
+        vals[idx]
+    }
+}
+
+/// Walks one ray of an exact kind (the line engine's core: 6, 26,
+/// adaptive) over `seg`, feeding `acc`.
+fn walk_exact<A: Accum, const TRI: bool, const KIND: u8>(
+    ctx: &FrameCtx,
+    g: &RayGeom,
+    seg: &Segment,
+    acc: &mut A,
+    n: &mut CastCounters,
+) {
+    let scene = ctx.scene;
+    let vals = scene.values.as_slice();
+    let f = Frame::new(seg);
+    let te = f.tripod_steps() as i64;
+    let mut core = if KIND == K26 {
+        Core::at_26_start(&f)
+    } else {
+        Core::at_tripod_in(&f, [0; 3])
+    };
+    let steps = f.mask_steps();
+    let [sx, sy, sz] = ctx.strides;
+    let off: [isize; 8] = steps.map(|s| s.x as isize * sx + s.y as isize * sy + s.z as isize * sz);
+    let major = f.perm[0];
+    let need_stretch = TRI || A::LEN;
+    let mut v = f.voxel_world(core.c);
+    let mut idx = scene.index(v);
+    let mut t: i64 = core.c.iter().sum();
+    // The 26-ray's previous column (a repeated column gets no stretch).
+    let mut prev_col = i32::MIN;
+    'ray: loop {
+        if t > te {
+            break;
+        }
+        let b = v >> 3;
+        let bi = scene.brick_index(b);
+        let class = ctx.class[bi];
+        let in26 = KIND == KAD && core.mode == RayMode::TwentySix;
+        if ctx.opts.skip {
+            let br = &scene.bricks[bi];
+            let k = if in26 { class.flag } else { class.skip };
+            let k = if k == 0 && !in26 && acc.brick_done(br.min[ctx.r], br.max[ctx.r]) {
+                1
+            } else {
+                k
+            };
+            if k >= 1 {
+                let r = i32::from(k) - 1;
+                let (lo, hi) = ((b - r) * BRICK, (b + r + 1) * BRICK - 1);
+                let h: [i64; 3] = std::array::from_fn(|j| {
+                    let w = f.perm[j];
+                    i64::from(if f.sign[j] > 0 {
+                        hi[w] - v[w]
+                    } else {
+                        v[w] - lo[w]
+                    })
+                });
+                // The rest of the ray lies in the box: nothing left to see.
+                if (0..3).all(|j| core.c[j] + h[j] >= f.end[j]) {
+                    break;
+                }
+                if core.jump(h).is_some() {
+                    n.jumps += 1;
+                    v = f.voxel_world(core.c);
+                    idx = scene.index(v);
+                    t = core.c.iter().sum();
+                    prev_col = i32::MIN;
+                    continue;
+                }
+            }
+        }
+        let flag = match KIND {
+            K6 => true,
+            K26 => false,
+            _ => class.flag == 0,
+        };
+        loop {
+            n.visited += 1;
+            let st = if !need_stretch {
+                (0.0, 0.0)
+            } else if KIND == K26 && g.inv[major] != 0.0 {
+                let c = v[major];
+                let (a, z) = g.column(major, c);
+                let repeated = c == prev_col;
+                prev_col = c;
+                if repeated { (a, a) } else { (a, z) }
+            } else {
+                g.chord(v)
+            };
+            let s = sample::<TRI>(ctx, vals, g, v, idx, st);
+            if acc.visit(v, s, (st.1 - st.0).max(0.0)) {
+                break 'ray;
+            }
+            if t >= te {
+                break 'ray;
+            }
+            let was = core.mode;
+            let mask = core.step_on(flag);
+            v += steps[mask];
+            idx = idx.wrapping_add_signed(off[mask]);
+            t += i64::from(mask.count_ones());
+            if t > te {
+                break 'ray;
+            }
+            if v >> 3 != b || (KIND == KAD && ctx.opts.skip && was != core.mode) {
+                break;
+            }
+        }
+    }
+}
+
+/// Walks one Amanatides–Woo ray over `seg`, feeding `acc`.
+fn walk_aw<A: Accum, const TRI: bool>(
+    ctx: &FrameCtx,
+    g: &RayGeom,
+    seg: &Segment,
+    acc: &mut A,
+    n: &mut CastCounters,
+) {
+    let scene = ctx.scene;
+    let vals = scene.values.as_slice();
+    let [a, b] = [seg.a(), seg.b()].map(|p| DVec3::from_array(p.map(crate::fixed::to_f64)));
+    let Ok(mut s) = AwStepper::new(a, b) else {
+        return;
+    };
+    let dir = s.direction();
+    let off: [isize; 3] = std::array::from_fn(|k| dir[k] as isize * ctx.strides[k]);
+    let need_stretch = TRI || A::LEN;
+    let mut v = s.voxel();
+    let mut idx = scene.index(v);
+    'ray: loop {
+        let bk = v >> 3;
+        let bi = scene.brick_index(bk);
+        if ctx.opts.skip {
+            let br = &scene.bricks[bi];
+            let k = match ctx.class[bi].skip {
+                0 if acc.brick_done(br.min[ctx.r], br.max[ctx.r]) => 1,
+                k => k,
+            };
+            if k >= 1 {
+                let r = i32::from(k) - 1;
+                if !s.jump_past_box((bk - r) * BRICK, (bk + r + 1) * BRICK - 1) {
+                    break;
+                }
+                n.jumps += 1;
+                v = s.voxel();
+                idx = scene.index(v);
+                continue;
+            }
+        }
+        loop {
+            n.visited += 1;
+            let st = if need_stretch { g.chord(v) } else { (0.0, 0.0) };
+            let smp = sample::<TRI>(ctx, vals, g, v, idx, st);
+            if acc.visit(v, smp, (st.1 - st.0).max(0.0)) {
+                break 'ray;
+            }
+            let Some(axis) = s.next_axis() else {
+                break 'ray;
+            };
+            s.step();
+            v[axis] += dir[axis];
+            idx = idx.wrapping_add_signed(off[axis]);
+            if v >> 3 != bk {
+                break;
+            }
+        }
+    }
+}
+
+/// Casts one ray of the frame's kind.
+#[inline]
+fn cast<A: Accum, const TRI: bool>(
+    ctx: &FrameCtx,
+    g: &RayGeom,
+    seg: &Segment,
+    acc: &mut A,
+    n: &mut CastCounters,
+) {
+    match ctx.opts.ray {
+        RayKind::Six => walk_exact::<A, TRI, K6>(ctx, g, seg, acc, n),
+        RayKind::TwentySix => walk_exact::<A, TRI, K26>(ctx, g, seg, acc, n),
+        RayKind::Adaptive => walk_exact::<A, TRI, KAD>(ctx, g, seg, acc, n),
+        RayKind::AmanatidesWoo => walk_aw::<A, TRI>(ctx, g, seg, acc, n),
+    }
+}
+
+/// One pixel: colour, depth, hit.
+type Pixel = ([f32; 4], f32, Option<IVec3>);
+
+const MISS: Pixel = ([0.0; 4], f32::INFINITY, None);
+
+/// Renders one pixel of the frame.
+fn render_pixel<const TRI: bool>(ctx: &FrameCtx, x: u32, y: u32, n: &mut CastCounters) -> Pixel {
+    let (ray, seg) = ctx.setup.pixel(x, y);
+    let Some(seg) = seg else { return MISS };
+    let g = RayGeom::new(&ray, ctx.dims);
+    let depth = |v: IVec3| ray.entry(v).0 as f32;
+    let vo = ctx.vopts;
+    match vo.mode {
+        VolumeMode::Mip => {
+            let mut acc = Mip {
+                m: vo.window.0,
+                hit: None,
+            };
+            cast::<_, TRI>(ctx, &g, &seg, &mut acc, n);
+            let gl = grey(acc.m, vo.window);
+            let d = acc.hit.map_or(f32::INFINITY, depth);
+            ([gl, gl, gl, 1.0], d, acc.hit)
+        }
+        VolumeMode::Iso(iso) => {
+            let mut acc = Iso { v: iso, hit: None };
+            cast::<_, TRI>(ctx, &g, &seg, &mut acc, n);
+            match acc.hit {
+                Some(v) => (shade_iso(ctx, &ray, v, iso), depth(v), Some(v)),
+                None => MISS,
+            }
+        }
+        VolumeMode::Composite => {
+            let mut acc = Composite {
+                tf: &vo.transfer,
+                window: vo.window,
+                inv_ref: 1.0 / ctx.scene.ref_len,
+                c: [0.0; 3],
+                a: 0.0,
+                hit: None,
+            };
+            cast::<_, TRI>(ctx, &g, &seg, &mut acc, n);
+            match acc.hit {
+                Some(v) if acc.a > 0.0 => {
+                    let [r, gr, b] = acc.c.map(|c| (c / acc.a).clamp(0.0, 1.0));
+                    ([r, gr, b, acc.a.min(1.0)], depth(v), Some(v))
+                }
+                _ => MISS,
+            }
+        }
+    }
+}
+
+/// Lambert from a headlight plus ambient at iso hit `v`.
+fn shade_iso(ctx: &FrameCtx, ray: &GridRay, v: IVec3, iso: f32) -> [f32; 4] {
+    let (_, axis) = ray.entry(v);
+    let face = match axis {
+        Some(k) => {
+            let mut n = DVec3::ZERO;
+            n[k] = -ray.d[k].signum();
+            n
+        }
+        None => -ray.d,
+    };
+    let n_grid = match ctx.opts.normals {
+        NormalMode::Face => face,
+        NormalMode::Smooth => {
+            let grad = value_gradient(ctx.scene, v);
+            if grad.is_finite() && grad.length_squared() > 0.0 {
+                -grad
+            } else {
+                face
+            }
+        }
+    };
+    let setup = &ctx.setup;
+    let n = setup.world_normal(n_grid);
+    let view = (setup.xf.axes * ray.d).normalize_or_zero();
+    let lambert = n.dot(-view).abs() as f32;
+    let base = ctx.vopts.transfer.color(iso).unwrap_or(ctx.opts.base_color);
+    let a = ctx.opts.ambient.clamp(0.0, 1.0);
+    let l = a + (1.0 - a) * lambert;
+    [base[0] * l, base[1] * l, base[2] * l, 1.0]
+}
+
+/// Central differences of the values at voxel `v` (grid units; one-sided
+/// at the border, 0 along an axis of extent 1).
+fn value_gradient(scene: &VolumeScene, v: IVec3) -> DVec3 {
+    let dims = scene.dims().map(|d| d as i32);
+    let at = |p: IVec3| scene.values[scene.index(p)] as f64;
+    let mut g = DVec3::ZERO;
+    for k in 0..3 {
+        let (mut lo, mut hi) = (v, v);
+        lo[k] = (v[k] - 1).max(0);
+        hi[k] = (v[k] + 1).min(dims[k] - 1);
+        let span = hi[k] - lo[k];
+        if span > 0 {
+            g[k] = (at(hi) - at(lo)) / span as f64;
+        }
+    }
+    g
+}
+
+/// One image row: colours, depths, hits, counters, hit count.
+type Row = (
+    Vec<[f32; 4]>,
+    Vec<f32>,
+    Vec<Option<IVec3>>,
+    CastCounters,
+    u64,
+);
+
+/// Renders a scalar volume: one discrete ray per pixel of `opts.ray`'s kind
+/// (`opts.skip`: jump bricks that cannot change the pixel, which changes no
+/// pixel), in `vopts.mode` (see the [module docs](self) for exactly what
+/// each mode computes). Rows run in parallel.
+///
+/// ```
+/// use glam::{DVec3, IVec3};
+/// use voxkit::camera::Camera;
+/// use voxkit::grid::{MemoryLimit, ScalarVolume, VolumeData, VolumeFrame};
+/// use voxkit::render::{
+///     differing_values, render_volume, RayKind, RenderOptions, VolumeMode, VolumeOptions, VolumeScene,
+/// };
+/// // A 16³ volume, 0 everywhere but a bright voxel at (8, 8, 8).
+/// let mut data = vec![0.0f32; 16 * 16 * 16];
+/// data[8 + 16 * (8 + 16 * 8)] = 100.0;
+/// let vol = ScalarVolume::new([16; 3], VolumeData::F32(data), VolumeFrame::default()).unwrap();
+/// let scene = VolumeScene::new(&vol, MemoryLimit::DEFAULT).unwrap();
+/// // Orthographic, down the z axis: pixel (x, y) looks along column (x, 15 − y).
+/// let cam = Camera::orthographic(DVec3::new(7.5, 7.5, 40.0), DVec3::new(7.5, 7.5, 0.0), DVec3::Y, 16.0);
+/// let opts = RenderOptions { width: 16, height: 16, ray: RayKind::Six, ..RenderOptions::default() };
+/// let vopts = VolumeOptions { window: (0.0, 100.0), ..VolumeOptions::new(&vol, VolumeMode::Mip) };
+/// let (img, stats) = render_volume(&scene, &cam, &opts, &vopts).unwrap();
+/// let p = 8 + 16 * 7;
+/// assert_eq!(img.color[p], [1.0, 1.0, 1.0, 1.0]);
+/// assert_eq!(img.hit[p], Some(IVec3::new(8, 8, 8)));
+/// assert_eq!(img.depth[p], 40.0 - 8.5); // entering the voxel's cube
+/// assert_eq!(stats.hits, 1);
+/// // The adaptive ray's MIP is the 6-ray's.
+/// let ad = RenderOptions { ray: RayKind::Adaptive, ..opts };
+/// assert_eq!(differing_values(&render_volume(&scene, &cam, &ad, &vopts).unwrap().0, &img), 0);
+/// ```
+pub fn render_volume(
+    scene: &VolumeScene,
+    camera: &Camera,
+    opts: &RenderOptions,
+    vopts: &VolumeOptions,
+) -> Result<(RenderImage, RenderStats)> {
+    camera_check(camera)?;
+    let (w, h) = (opts.width, opts.height);
+    check_image(w, h, opts.limit)?;
+    vopts.validate()?;
+    let start = Instant::now();
+    let ctx = FrameCtx::new(scene, camera, opts, vopts);
+    let tri = vopts.sampling == Sampling::Trilinear;
+    let rows: Vec<Row> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut row: Row = (
+                Vec::with_capacity(w as usize),
+                Vec::with_capacity(w as usize),
+                Vec::with_capacity(w as usize),
+                CastCounters::default(),
+                0,
+            );
+            for x in 0..w {
+                let (c, d, v) = if tri {
+                    render_pixel::<true>(&ctx, x, y, &mut row.3)
+                } else {
+                    render_pixel::<false>(&ctx, x, y, &mut row.3)
+                };
+                row.0.push(c);
+                row.1.push(d);
+                row.2.push(v);
+                row.4 += u64::from(v.is_some());
+            }
+            row
+        })
+        .collect();
+    let n = (w as usize) * (h as usize);
+    let mut img = RenderImage {
+        width: w,
+        height: h,
+        color: Vec::with_capacity(n),
+        depth: Vec::with_capacity(n),
+        hit: Vec::with_capacity(n),
+    };
+    let mut stats = RenderStats {
+        rays: n as u64,
+        ..RenderStats::default()
+    };
+    for (c, d, v, cn, hits) in rows {
+        img.color.extend(c);
+        img.depth.extend(d);
+        img.hit.extend(v);
+        stats.voxels_visited += cn.visited;
+        stats.bricks_skipped += cn.jumps;
+        stats.hits += hits;
+    }
+    stats.render_ms = start.elapsed().as_secs_f64() * 1e3;
+    Ok((img, stats))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::{VolumeData, VolumeFrame};
+
+    /// Brick ranges equal brute force over the grown boxes, at odd sizes.
+    #[test]
+    fn brick_ranges_match_brute_force() {
+        let dims = [19usize, 9, 17];
+        let n = dims.iter().product::<usize>();
+        let data: Vec<f32> = (0..n)
+            .map(|i| ((i * 7919 + 13) % 1009) as f32 - 500.0)
+            .collect();
+        let vol = ScalarVolume::new(dims, VolumeData::F32(data), VolumeFrame::default()).unwrap();
+        let s = VolumeScene::new(&vol, MemoryLimit::DEFAULT).unwrap();
+        for bz in 0..3 {
+            for by in 0..2 {
+                for bx in 0..3 {
+                    let b = IVec3::new(bx, by, bz);
+                    let got = s.brick_range(b).unwrap();
+                    for r in 0..3 {
+                        let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
+                        for z in 0..dims[2] as i32 {
+                            for y in 0..dims[1] as i32 {
+                                for x in 0..dims[0] as i32 {
+                                    let p = IVec3::new(x, y, z);
+                                    let lo = b * 8 - r;
+                                    let hi = b * 8 + 7 + r;
+                                    if p.cmpge(lo).all() && p.cmple(hi).all() {
+                                        let v = s.value(p).unwrap();
+                                        mn = mn.min(v);
+                                        mx = mx.max(v);
+                                    }
+                                }
+                            }
+                        }
+                        assert_eq!((got.min[r as usize], got.max[r as usize]), (mn, mx));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Trilinear reproduces a linear function inside the volume, clamps at
+    /// the border, and ignores `−∞` corners of weight 0.
+    #[test]
+    fn trilinear_is_exact_on_linear_functions() {
+        let dims = [5usize, 4, 3];
+        let f = |x: f64, y: f64, z: f64| (1.5 * x - 2.0 * y + 0.25 * z + 3.0) as f32;
+        let mut data = Vec::new();
+        for z in 0..3 {
+            for y in 0..4 {
+                for x in 0..5 {
+                    data.push(f(x as f64, y as f64, z as f64));
+                }
+            }
+        }
+        let vol = ScalarVolume::new(dims, VolumeData::F32(data), VolumeFrame::default()).unwrap();
+        let scene = VolumeScene::new(&vol, MemoryLimit::DEFAULT).unwrap();
+        let cam = Camera::orthographic(DVec3::new(0.0, 0.0, 10.0), DVec3::ZERO, DVec3::Y, 4.0);
+        let opts = RenderOptions::default();
+        let vopts = VolumeOptions::new(&vol, VolumeMode::Mip);
+        let ctx = FrameCtx::new(&scene, &cam, &opts, &vopts);
+        let vals = scene.values.as_slice();
+        for (v, p) in [
+            (IVec3::new(2, 1, 1), [2.3, 0.6, 1.5]),
+            (IVec3::new(0, 0, 0), [0.2, 0.4, -0.1]),
+            (IVec3::new(4, 3, 2), [3.6, 3.2, 2.4]),
+        ] {
+            let got = trilinear(vals, &ctx, v, scene.index(v), p);
+            let clamped = p.map(|x| x.max(0.0));
+            let c = [
+                clamped[0].min(4.0),
+                clamped[1].min(3.0),
+                clamped[2].min(2.0),
+            ];
+            assert!((got - f(c[0], c[1], c[2])).abs() < 1e-5, "{v} {p:?}: {got}");
+        }
+        assert_eq!(lerp(f32::NEG_INFINITY, 2.0, 0.0), f32::NEG_INFINITY);
+        assert_eq!(lerp(3.0, f32::NEG_INFINITY, 0.0), 3.0);
+        assert_eq!(lerp(3.0, f32::NEG_INFINITY, 0.5), f32::NEG_INFINITY);
+        assert_eq!(
+            lerp(f32::INFINITY, f32::NEG_INFINITY, 0.5),
+            f32::NEG_INFINITY
+        );
+    }
+
+    #[test]
+    fn transfer_function_parsing_and_errors() {
+        let tf = TransferFunction::parse(" -1000:0 , 0:0.2:#808080,0:0.5 ,300:1:#FFFFFF").unwrap();
+        assert_eq!(tf.points().len(), 4);
+        // A step at 0: below it the ramp, at and above the second point.
+        assert!((tf.opacity(-500.0) - 0.1).abs() < 1e-6);
+        assert_eq!(tf.opacity(0.0), 0.5);
+        assert_eq!(tf.opacity(f32::NEG_INFINITY), 0.0);
+        assert_eq!(tf.max_opacity(-2000.0, -1000.0), 0.0);
+        assert!(tf.max_opacity(-2000.0, -999.0) > 0.0);
+        assert_eq!(tf.max_opacity(-10.0, 10.0), 0.5 + 10.0 / 300.0 * 0.5);
+        for bad in [
+            "",
+            "1",
+            "1:2",
+            "a:0.5",
+            "1:0.5:#12345",
+            "1:0.5:123456",
+            "1:0.5:#gg0000",
+            "nan:0.5",
+            "2:0.5,1:0.5",
+            "1:0.5:#ffffff:3",
+        ] {
+            assert!(TransferFunction::parse(bad).is_err(), "{bad}");
+        }
+    }
+}
