@@ -19,11 +19,11 @@ use glam::DVec3;
 use super::CliError;
 use super::voxelize::{ModeArg, peak_rss_mib};
 use crate::camera::{Camera, SceneAxes, ViewPreset};
-use crate::grid::{BrickGrid, GridFrame, MemoryLimit};
+use crate::grid::{BrickGrid, GridFrame, MemoryLimit, ScalarVolume};
 use crate::mesh::Mesh;
 use crate::render::{
     GridTransform, NormalMode, OccupancyGrid, RayKind, RenderImage, RenderOptions, RenderStats,
-    render_grid,
+    Sampling, TransferFunction, VolumeMode, VolumeOptions, VolumeScene, render_grid, render_volume,
 };
 use crate::voxelize::pipeline::{VoxelizeOptions, voxelize_mesh};
 
@@ -95,6 +95,26 @@ pub enum NormalsArg {
     Smooth,
 }
 
+/// `--volume` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum VolumeArg {
+    /// Maximum intensity projection.
+    Mip,
+    /// Front-to-back alpha compositing through the transfer function.
+    Composite,
+    /// The iso-surface at --iso, shaded.
+    Iso,
+}
+
+/// `--sampling` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SamplingArg {
+    /// The voxel's value.
+    Nearest,
+    /// Trilinear at the middle of the ray's stretch in the voxel.
+    Trilinear,
+}
+
 /// Arguments of `voxkit render`.
 ///
 /// World coordinates (`--eye`, `--target`, `--up`, EXR depth) are those of
@@ -149,12 +169,29 @@ pub struct RenderArgs {
     /// Write N frames around the vertical axis.
     #[arg(long, value_name = "N")]
     pub turntable: Option<u32>,
-    /// Normals for shading.
-    #[arg(long, value_enum, default_value = "face")]
+    /// Normals for shading: smooth (occupancy or value gradient) or the entry face.
+    #[arg(long, value_enum, default_value = "smooth")]
     pub normals: NormalsArg,
     /// Background colour, linear RGB in [0, 1].
     #[arg(long, value_name = "R,G,B", value_parser = parse_vec3, default_value = "0.07,0.08,0.1")]
     pub background: DVec3,
+    /// Scalar volumes: maximum intensity, front-to-back compositing, or an iso-surface
+    /// (default: mip; a 0/1 uint8 volume without --volume renders as a voxel grid).
+    #[arg(long, value_enum)]
+    pub volume: Option<VolumeArg>,
+    /// Iso value for --volume iso (default: the middle of the window).
+    #[arg(long, value_name = "V", allow_hyphen_values = true)]
+    pub iso: Option<f32>,
+    /// Value window LO,HI mapped to black..white (default: the data's 1% and 99.5% percentiles).
+    #[arg(long, value_name = "LO,HI", value_parser = parse_window, allow_hyphen_values = true)]
+    pub window: Option<(f32, f32)>,
+    /// Transfer function for compositing: value:opacity[:#rrggbb] points, comma-separated
+    /// (default: a linear opacity ramp over the window).
+    #[arg(long, value_name = "V:O[:#RRGGBB],...", allow_hyphen_values = true)]
+    pub tf: Option<String>,
+    /// How visited voxels are sampled.
+    #[arg(long, value_enum, default_value = "nearest")]
+    pub sampling: SamplingArg,
     /// Meshes: voxels along the longest side.
     #[arg(
         short = 'r',
@@ -195,6 +232,17 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     }
 }
 
+fn parse_window(s: &str) -> Result<(f32, f32), String> {
+    match s
+        .split(',')
+        .map(|x| x.trim().parse::<f32>())
+        .collect::<Vec<_>>()[..]
+    {
+        [Ok(lo), Ok(hi)] if lo.is_finite() && hi.is_finite() && lo < hi => Ok((lo, hi)),
+        _ => Err(format!("{s:?}: expected LO,HI with LO < HI")),
+    }
+}
+
 fn parse_vec3(s: &str) -> Result<DVec3, String> {
     let v: Vec<f64> = s
         .split(',')
@@ -223,52 +271,95 @@ fn is_mesh(path: &Path) -> bool {
 /// What was loaded: a voxel grid in its frame, with the scene's axes.
 struct Scene {
     grid: BrickGrid,
-    frame: GridFrame,
+    dims: [usize; 3],
+    xf: GridTransform,
+    /// Voxel edge for error measures in voxels (meshes).
+    voxel_size: f64,
     colors: Option<crate::io::vox::VoxColors>,
     axes: SceneAxes,
     mesh: Option<Mesh>,
 }
 
-fn load(args: &RenderArgs, limit: MemoryLimit) -> Result<Scene, CliError> {
+/// A loaded input: a voxel grid or a scalar volume.
+enum Input {
+    Grid(Box<Scene>),
+    Volume(ScalarVolume),
+}
+
+impl Scene {
+    fn from_frame(grid: BrickGrid, frame: &GridFrame, axes: SceneAxes) -> Result<Self, CliError> {
+        Ok(Scene {
+            grid,
+            dims: frame.dims,
+            xf: GridTransform::from_frame(frame)?,
+            voxel_size: frame.voxel_size,
+            colors: None,
+            axes,
+            mesh: None,
+        })
+    }
+}
+
+fn load(args: &RenderArgs, limit: MemoryLimit) -> Result<Input, CliError> {
     let path = &args.input;
+    let named = |e: crate::VoxkitError| CliError::bad_input(format!("{}: {e}", path.display()));
     if is_mesh(path) {
         let mesh = Mesh::load(path)?;
         let mut opts = VoxelizeOptions::new(args.resolution, args.mode.into());
         opts.limit = limit;
         let v = voxelize_mesh(&mesh, &opts)?;
-        return Ok(Scene {
-            grid: v.grid,
-            frame: v.frame,
-            colors: None,
-            axes: SceneAxes::Y_UP,
-            mesh: Some(mesh),
-        });
+        let mut scene = Scene::from_frame(v.grid, &v.frame, SceneAxes::Y_UP)?;
+        scene.mesh = Some(mesh);
+        return Ok(Input::Grid(Box::new(scene)));
     }
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    if ext == "vox" {
-        let bytes = std::fs::read(path)
-            .map_err(|e| CliError::bad_input(format!("{}: {e}", path.display())))?;
-        let (grid, frame, colors) = crate::io::vox::read_colored(&bytes, limit)
-            .map_err(|e| CliError::bad_input(format!("{}: {e}", path.display())))?;
-        return Ok(Scene {
-            grid,
-            frame,
-            colors: Some(colors),
-            axes: SceneAxes::Z_UP,
-            mesh: None,
-        });
+    match ext.as_str() {
+        "vox" => {
+            limit.check(
+                "reading the .vox file",
+                std::fs::metadata(path)
+                    .map_err(|e| CliError::bad_input(format!("{}: {e}", path.display())))?
+                    .len() as u128,
+                1,
+            )?;
+            let bytes = std::fs::read(path)
+                .map_err(|e| CliError::bad_input(format!("{}: {e}", path.display())))?;
+            let (grid, frame, colors) =
+                crate::io::vox::read_colored(&bytes, limit).map_err(named)?;
+            let mut scene = Scene::from_frame(grid, &frame, SceneAxes::Z_UP)?;
+            scene.colors = Some(colors);
+            Ok(Input::Grid(Box::new(scene)))
+        }
+        "binvox" => {
+            let (grid, frame) = crate::io::read_voxels(path, limit)?;
+            Ok(Input::Grid(Box::new(Scene::from_frame(
+                grid,
+                &frame,
+                SceneAxes::Y_UP,
+            )?)))
+        }
+        _ => {
+            let vol = crate::io::volume::read_volume(path, limit)?;
+            if vol.is_binary() && args.volume.is_none() {
+                // A 0/1 grid (what `voxkit voxelize` writes): occupancy.
+                let xf = GridTransform::new(vol.frame.origin, vol.frame.axes)?;
+                let h = vol.frame.spacing().min_element();
+                return Ok(Input::Grid(Box::new(Scene {
+                    grid: vol.to_brick_grid(),
+                    dims: vol.dims,
+                    xf,
+                    voxel_size: h,
+                    colors: None,
+                    axes: SceneAxes::Y_UP,
+                    mesh: None,
+                })));
+            }
+            Ok(Input::Volume(vol))
+        }
     }
-    let (grid, frame) = crate::io::read_voxels(path, limit)?;
-    Ok(Scene {
-        grid,
-        frame,
-        colors: None,
-        axes: SceneAxes::Y_UP,
-        mesh: None,
-    })
 }
 
 /// The camera for the options, framing the world box `[lo, hi]`.
@@ -326,17 +417,19 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let (w, h) = args.size;
     crate::render::check_image(w, h, limit)?;
     let t = Instant::now();
-    let scene = load(&args, limit)?;
+    let input = load(&args, limit)?;
     let load_ms = ms(t);
-    let t = Instant::now();
-    let mut occ = OccupancyGrid::new(&scene.grid, scene.frame.dims, limit)?;
-    if let Some(c) = &scene.colors {
-        occ.set_colors(&c.voxels, c.palette);
+    if matches!(input, Input::Grid(_))
+        && (args.volume.is_some()
+            || args.iso.is_some()
+            || args.window.is_some()
+            || args.tf.is_some())
+    {
+        return Err(CliError::bad_input(format!(
+            "{}: --volume, --iso, --window and --tf apply to scalar volumes, not to a voxel grid or mesh",
+            args.input.display()
+        )));
     }
-    let xf = GridTransform::from_frame(&scene.frame)?;
-    let prepare_ms = ms(t);
-    let (lo, hi) = crate::render::occupied_world_box(&occ, &xf);
-    let base_cam = camera(&args, lo, hi, scene.axes)?;
     let opts = RenderOptions {
         width: w,
         height: h,
@@ -350,6 +443,51 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         limit,
         ..RenderOptions::default()
     };
+    let t = Instant::now();
+    let mut info = serde_json::Map::new();
+    let renderer: Renderer = match &input {
+        Input::Grid(scene) => {
+            let mut occ = OccupancyGrid::new(&scene.grid, scene.dims, limit)?;
+            if let Some(c) = &scene.colors {
+                occ.set_colors(&c.voxels, c.palette);
+            }
+            info.insert("kind".into(), "grid".into());
+            info.insert("dims".into(), serde_json::json!(scene.dims));
+            info.insert("voxels".into(), occ.voxel_count().into());
+            info.insert("stored_bricks".into(), occ.stored_bricks().into());
+            Renderer::Grid(occ)
+        }
+        Input::Volume(vol) => {
+            let vs = VolumeScene::new(vol, limit)?;
+            let vopts = volume_options(&args, vol)?;
+            info.insert("kind".into(), "volume".into());
+            info.insert("dims".into(), serde_json::json!(vol.dims));
+            info.insert("dtype".into(), vol.source_type().name().into());
+            info.insert(
+                "mode".into(),
+                format!("{:?}", vopts.mode).to_lowercase().into(),
+            );
+            info.insert(
+                "window".into(),
+                serde_json::json!([vopts.window.0, vopts.window.1]),
+            );
+            Renderer::Volume(Box::new(vs), vopts)
+        }
+    };
+    let prepare_ms = ms(t);
+    let (xf, axes) = match (&input, &renderer) {
+        (Input::Grid(scene), _) => (scene.xf, scene.axes),
+        (Input::Volume(_), Renderer::Volume(vs, _)) => (*vs.transform(), SceneAxes::Z_UP),
+        _ => unreachable!("the renderer follows the input"),
+    };
+    let (lo, hi) = match &renderer {
+        Renderer::Grid(occ) => crate::render::occupied_world_box(occ, &xf),
+        Renderer::Volume(vs, _) => {
+            let d = vs.dims().map(|x| x as f64);
+            xf.world_bounds(DVec3::splat(-0.5), DVec3::from_array(d) - 0.5)
+        }
+    };
+    let base_cam = camera(&args, lo, hi, axes)?;
     let bar = (!args.quiet && std::io::stderr().is_terminal() && frames > 1).then(|| {
         let b = indicatif::ProgressBar::new(frames as u64);
         b.set_style(
@@ -365,14 +503,11 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let mut gif_frames = Vec::new();
     for i in 0..frames {
         let cam = if frames > 1 {
-            base_cam.orbited(
-                scene.axes.up,
-                std::f64::consts::TAU * i as f64 / frames as f64,
-            )
+            base_cam.orbited(axes.up, std::f64::consts::TAU * i as f64 / frames as f64)
         } else {
             base_cam
         };
-        let (img, stats) = render_grid(&occ, &xf, &cam, &opts)?;
+        let (img, stats) = renderer.render(&xf, &cam, &opts)?;
         times.push(stats.render_ms);
         let rgba = img.to_rgba8(opts.background);
         if is_gif(&args.output) {
@@ -407,9 +542,6 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let mut j = serde_json::json!({
         "input": args.input.display().to_string(),
         "output": args.output.display().to_string(),
-        "kind": "grid",
-        "dims": scene.frame.dims,
-        "voxels": occ.voxel_count(),
         "ray": RayKind::from(args.ray).name(),
         "skip": !args.no_skip,
         "size": [w, h],
@@ -421,23 +553,26 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "load_ms": load_ms,
         "prepare_ms": prepare_ms,
         "render_ms": render_ms,
-        "memory_bytes": occ.heap_bytes() as u64 + w as u64 * h as u64 * 36,
-        "stored_bricks": occ.stored_bricks(),
+        "memory_bytes": renderer.heap_bytes() as u64 + w as u64 * h as u64 * 36,
     });
     let obj = j.as_object_mut().expect("json! of an object literal");
+    obj.extend(info);
     if args.measure {
         let t = Instant::now();
         let six = RenderOptions {
             ray: RayKind::Six,
             ..opts
         };
-        let (reference, _) = render_grid(&occ, &xf, &cam, &six)?;
-        obj.insert(
-            "differing_pixels".into(),
-            img.differing_hits(&reference).into(),
-        );
-        if let Some(mesh) = &scene.mesh {
-            let m = crate::render::measure::against_mesh(&img, mesh, &cam, scene.frame.voxel_size)?;
+        let (reference, _) = renderer.render(&xf, &cam, &six)?;
+        let differing = match &renderer {
+            Renderer::Grid(_) => img.differing_hits(&reference),
+            Renderer::Volume(..) => crate::render::differing_values(&img, &reference),
+        };
+        obj.insert("differing_pixels".into(), differing.into());
+        if let Input::Grid(scene) = &input
+            && let Some(mesh) = &scene.mesh
+        {
+            let m = crate::render::measure::against_mesh(&img, mesh, &cam, scene.voxel_size)?;
             obj.insert("mesh_depth_mean".into(), m.depth_mean.into());
             obj.insert("mesh_depth_max".into(), m.depth_max.into());
             obj.insert("silhouette_disagree".into(), m.silhouette_disagree.into());
@@ -468,6 +603,64 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         )?;
     }
     Ok(())
+}
+
+/// The render structures of the input.
+enum Renderer {
+    Grid(OccupancyGrid),
+    Volume(Box<VolumeScene>, VolumeOptions),
+}
+
+impl Renderer {
+    fn render(
+        &self,
+        xf: &GridTransform,
+        cam: &Camera,
+        opts: &RenderOptions,
+    ) -> crate::Result<(RenderImage, RenderStats)> {
+        match self {
+            Renderer::Grid(occ) => render_grid(occ, xf, cam, opts),
+            Renderer::Volume(vs, vopts) => render_volume(vs, cam, opts, vopts),
+        }
+    }
+
+    fn heap_bytes(&self) -> usize {
+        match self {
+            Renderer::Grid(occ) => occ.heap_bytes(),
+            Renderer::Volume(vs, _) => vs.heap_bytes(),
+        }
+    }
+}
+
+/// The volume options of the arguments (defaults from the data).
+fn volume_options(args: &RenderArgs, vol: &ScalarVolume) -> Result<VolumeOptions, CliError> {
+    let mut v = VolumeOptions::new(vol, VolumeMode::Mip);
+    if let Some(win) = args.window {
+        v.window = win;
+        v.transfer = TransferFunction::ramp(win);
+    }
+    if let Some(tf) = &args.tf {
+        v.transfer = TransferFunction::parse(tf)?;
+    }
+    v.mode = match args.volume.unwrap_or(VolumeArg::Mip) {
+        VolumeArg::Mip => VolumeMode::Mip,
+        VolumeArg::Composite => VolumeMode::Composite,
+        VolumeArg::Iso => {
+            let level = args.iso.unwrap_or((v.window.0 + v.window.1) * 0.5);
+            if !level.is_finite() {
+                return Err(CliError::bad_input("--iso must be a finite value"));
+            }
+            VolumeMode::Iso(level)
+        }
+    };
+    if args.iso.is_some() && !matches!(v.mode, VolumeMode::Iso(_)) {
+        return Err(CliError::bad_input("--iso needs --volume iso"));
+    }
+    v.sampling = match args.sampling {
+        SamplingArg::Nearest => Sampling::Nearest,
+        SamplingArg::Trilinear => Sampling::Trilinear,
+    };
+    Ok(v)
 }
 
 fn is_gif(p: &Path) -> bool {

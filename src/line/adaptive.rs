@@ -144,7 +144,6 @@ impl Core {
     }
 
     /// [`Core::at_tripod`] on a frame already built.
-    #[cfg(test)]
     pub(crate) fn at_tripod_in(f: &Frame, c: [i64; 3]) -> Self {
         let plan = Plan26::new(f);
         Core {
@@ -158,7 +157,6 @@ impl Core {
     }
 
     /// Starts in 26 mode at the segment's start voxel.
-    #[cfg(test)]
     pub(crate) fn at_26_start(f: &Frame) -> Self {
         let plan = Plan26::new(f);
         Core {
@@ -177,8 +175,6 @@ impl Core {
         self.c == self.f.end
     }
 
-    /// (Test harness of the jump kernels the ray caster uses.)
-    ///
     /// Jumps past the local box `[c, c + h]` of the current voxel (`h ≥ 0`,
     /// any size: clipped here) in O(1), in the current mode, to exactly the
     /// voxel and state that stepping reaches first outside the box (or, in
@@ -188,7 +184,6 @@ impl Core {
     /// unflagged voxels, and its columns are those of the 26-line). Returns
     /// the local moves, or `None` where no jump applies (a wide frame, the
     /// 26-line's prefix or suffix, the end voxel inside the box).
-    #[cfg(test)]
     pub(crate) fn jump(&mut self, h: [i64; 3]) -> Option<[i64; 3]> {
         use super::tripod6::{JUMP_MAX_DELTA, JUMP_MAX_EXTENT};
         if self.f.d[0] > JUMP_MAX_DELTA {

@@ -120,7 +120,7 @@ impl Default for RenderOptions {
             height: 1024,
             ray: RayKind::Adaptive,
             skip: true,
-            normals: NormalMode::Face,
+            normals: NormalMode::Smooth,
             background: [0.07, 0.08, 0.1],
             base_color: [0.85, 0.8, 0.72],
             ambient: 0.25,

@@ -11,6 +11,7 @@ mod lines;
 mod mesh_io;
 mod raster;
 mod render;
+mod render_cli;
 mod render_volume;
 mod solid;
 mod strategies;

@@ -653,6 +653,7 @@ fn golden_images_per_mode() {
     let ro = RenderOptions {
         width: 32,
         height: 32,
+        normals: voxkit::render::NormalMode::Face,
         ..RenderOptions::default()
     };
     let column = |i: usize| -> Vec<(IVec3, f32)> {

@@ -1,0 +1,321 @@
+//! `voxkit render` end to end: every input kind, PNG / EXR / GIF outputs,
+//! the JSON keys, and bad input as a typed error with exit code 2 and no
+//! file left behind.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn voxkit(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_voxkit"))
+        .args(args)
+        .output()
+        .expect("voxkit runs")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("voxkit-render-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn data(p: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join(p)
+        .display()
+        .to_string()
+}
+
+fn json(out: &std::process::Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("one JSON line")
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A mesh in one step, with EXR and measures; the JSON has the contract's
+/// keys; the EXR's depth is finite exactly where the PNG shows a hit.
+#[test]
+fn mesh_to_png_and_exr() {
+    let d = tmp("mesh");
+    let (png, exr) = (d.join("spot.png"), d.join("spot.exr"));
+    let out = voxkit(&[
+        "render",
+        &data("data/meshes/obj/spot.obj"),
+        "-r",
+        "64",
+        "-o",
+        s(&png),
+        "--exr",
+        s(&exr),
+        "--size",
+        "96x64",
+        "--json",
+        "--measure",
+    ]);
+    let j = json(&out);
+    for k in [
+        "rays",
+        "voxels_visited",
+        "bricks_skipped",
+        "render_ms",
+        "load_ms",
+        "memory_bytes",
+        "differing_pixels",
+        "mesh_depth_mean",
+        "silhouette_disagree",
+    ] {
+        assert!(j.get(k).is_some(), "missing {k} in {j}");
+    }
+    assert_eq!(j["rays"], 96 * 64);
+    assert_eq!(j["differing_pixels"], 0, "adaptive differs from the 6-ray");
+    assert!(j["hits"].as_u64().unwrap() > 500);
+    let e = voxkit::io::image::read_exr(&exr).unwrap();
+    assert_eq!((e.width, e.height), (96, 64));
+    let hits = e.depth.iter().filter(|d| d.is_finite()).count() as u64;
+    assert_eq!(hits, j["hits"].as_u64().unwrap());
+    assert!(e.depth.iter().all(|d| d.is_finite() || *d == f32::INFINITY));
+    assert!(
+        e.rgba
+            .iter()
+            .zip(&e.depth)
+            .all(|(c, d)| (c[3] == 1.0) == d.is_finite())
+    );
+    assert!(png.exists());
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// Every voxel format voxkit writes renders; a .vox keeps its palette's
+/// colours; a turntable writes a GIF or numbered PNGs.
+#[test]
+fn voxel_files_and_turntables() {
+    let d = tmp("files");
+    let mesh = data("data/meshes/obj/spot.obj");
+    for ext in ["binvox", "vox", "npy", "nrrd"] {
+        let f = d.join(format!("spot.{ext}"));
+        let o = voxkit(&[
+            "voxelize",
+            &mesh,
+            "-r",
+            "48",
+            "-o",
+            s(&f),
+            "--mode",
+            "thick",
+        ]);
+        assert!(o.status.success());
+        let png = d.join(format!("{ext}.png"));
+        let j = json(&voxkit(&[
+            "render",
+            s(&f),
+            "-o",
+            s(&png),
+            "--size",
+            "40x40",
+            "--json",
+            "--measure",
+        ]));
+        assert_eq!(j["kind"], "grid", "{ext}");
+        assert!(j["hits"].as_u64().unwrap() > 100, "{ext}: {j}");
+        assert_eq!(j["differing_pixels"], 0);
+    }
+    let gif = d.join("turn.gif");
+    let j = json(&voxkit(&[
+        "render",
+        s(&d.join("spot.binvox")),
+        "-o",
+        s(&gif),
+        "--turntable",
+        "3",
+        "--size",
+        "32x24",
+        "--json",
+    ]));
+    assert_eq!(j["frames"], 3);
+    let mut dec = gif::DecodeOptions::new();
+    dec.set_color_output(gif::ColorOutput::RGBA);
+    let mut r = dec.read_info(std::fs::File::open(&gif).unwrap()).unwrap();
+    let mut n = 0;
+    while r.read_next_frame().unwrap().is_some() {
+        n += 1;
+    }
+    assert_eq!(n, 3);
+    let o = voxkit(&[
+        "render",
+        s(&d.join("spot.binvox")),
+        "-o",
+        s(&d.join("t.png")),
+        "--turntable",
+        "2",
+        "--size",
+        "16x16",
+    ]);
+    assert!(o.status.success());
+    assert!(d.join("t_000.png").exists() && d.join("t_001.png").exists());
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// A detached-header NRRD volume (the CT head) and the MetaImage MR head
+/// render in every volume mode; a detached header written here with a
+/// non-zero origin and a float type renders too.
+#[test]
+fn volumes_from_detached_headers() {
+    let d = tmp("vol");
+    for (input, modes) in [
+        (
+            "data/volumes/headsq_quarter/headsq_quarter.nhdr",
+            &["mip", "composite", "iso"][..],
+        ),
+        ("data/volumes/HeadMRVolume/HeadMRVolume.mhd", &["mip"][..]),
+    ] {
+        for m in modes {
+            let png = d.join(format!("{m}.png"));
+            let j = json(&voxkit(&[
+                "render",
+                &data(input),
+                "-o",
+                s(&png),
+                "--volume",
+                m,
+                "--size",
+                "48x48",
+                "--json",
+                "--measure",
+                "--force",
+            ]));
+            assert_eq!(j["kind"], "volume");
+            assert!(j["hits"].as_u64().unwrap() > 200, "{input} {m}: {j}");
+            assert_eq!(j["differing_pixels"], 0, "{input} {m}");
+        }
+    }
+    // float32, origin (-5, 2, 7), spacing (0.5, 0.5, 2), 9×7×5, data in a
+    // separate file named by the header.
+    let (nx, ny, nz) = (9usize, 7usize, 5usize);
+    let mut raw = Vec::new();
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                let v = if (x, y, z) == (4, 3, 2) {
+                    10.0f32
+                } else {
+                    (x + y + z) as f32 * 0.01
+                };
+                raw.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    std::fs::write(d.join("blob.raw"), &raw).unwrap();
+    std::fs::write(
+        d.join("blob.nhdr"),
+        format!(
+            "NRRD0004\ntype: float\ndimension: 3\nsizes: {nx} {ny} {nz}\nendian: little\n\
+             encoding: raw\nspace dimension: 3\nspace directions: (0.5,0,0) (0,0.5,0) (0,0,2)\n\
+             space origin: (-5,2,7)\ndata file: blob.raw\n\n"
+        ),
+    )
+    .unwrap();
+    let j = json(&voxkit(&[
+        "render",
+        s(&d.join("blob.nhdr")),
+        "-o",
+        s(&d.join("b.png")),
+        "--volume",
+        "iso",
+        "--iso",
+        "5",
+        "--size",
+        "64x64",
+        "--json",
+        "--ray",
+        "6",
+    ]));
+    assert!(j["hits"].as_u64().unwrap() > 0, "{j}");
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// Bad input: exit 2, one line naming the problem, no output file.
+#[test]
+fn bad_input_exits_2_without_output() {
+    let d = tmp("bad");
+    let grid = d.join("g.binvox");
+    assert!(
+        voxkit(&[
+            "voxelize",
+            &data("data/meshes/obj/spot.obj"),
+            "-r",
+            "16",
+            "-o",
+            s(&grid)
+        ])
+        .status
+        .success()
+    );
+    let png = d.join("x.png");
+    let cases: Vec<Vec<&str>> = vec![
+        vec!["--eye", "1,2,3", "--target", "1,2,3"],
+        vec!["--eye", "0,5,0", "--target", "0,0,0", "--up", "0,1,0"],
+        vec!["--fov", "0"],
+        vec!["--fov", "180"],
+        vec!["--size", "0x10"],
+        vec!["--size", "100000x100000", "--max-memory", "64"],
+        vec!["--eye", "nan,0,0"],
+        vec!["--volume", "mip", "--iso", "3"],
+        vec!["--window", "5,1"],
+    ];
+    for extra in cases {
+        let mut args = vec!["render", s(&grid), "-o", s(&png)];
+        args.extend(extra.iter());
+        let o = voxkit(&args);
+        assert_eq!(
+            o.status.code(),
+            Some(2),
+            "{extra:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(!png.exists(), "{extra:?} left a file");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(err.trim().lines().count().min(1), 1, "{extra:?}: {err}");
+    }
+    // A header whose sizes disagree with its data; an unsupported encoding;
+    // a missing data file; an unknown extension.
+    std::fs::write(d.join("short.raw"), [0u8; 10]).unwrap();
+    std::fs::write(
+        d.join("short.nhdr"),
+        "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\ndata file: short.raw\n\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("bz.nhdr"),
+        "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: bzip2\ndata file: short.raw\n\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("gone.nhdr"),
+        "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: raw\ndata file: nowhere.raw\n\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("x.xyz"), "hello").unwrap();
+    for f in ["short.nhdr", "bz.nhdr", "gone.nhdr", "x.xyz"] {
+        let o = voxkit(&["render", s(&d.join(f)), "-o", s(&png)]);
+        assert_eq!(o.status.code(), Some(2), "{f}");
+        assert!(!png.exists(), "{f} left a file");
+    }
+    // An existing output is refused without --force, and kept intact.
+    std::fs::write(&png, b"keep").unwrap();
+    let o = voxkit(&["render", s(&grid), "-o", s(&png)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(std::fs::read(&png).unwrap(), b"keep");
+    let leftovers: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+    std::fs::remove_dir_all(&d).unwrap();
+}
