@@ -588,18 +588,8 @@ fn shade(
     let n_grid = match opts.normals {
         NormalMode::Face => face,
         NormalMode::Smooth => {
-            let mut g = DVec3::ZERO;
-            for dz in -1..=1 {
-                for dy in -1..=1 {
-                    for dx in -1..=1 {
-                        let o = IVec3::new(dx, dy, dz);
-                        if o != IVec3::ZERO && occ.is_occupied(v + o) {
-                            g -= o.as_dvec3() / o.length_squared() as f64;
-                        }
-                    }
-                }
-            }
-            if g.length_squared() > 1e-12 { g } else { face }
+            let g = occ.occupancy_gradient(v);
+            if g.length_squared() > 1e-12 { -g } else { face }
         }
     };
     let n = setup.world_normal(n_grid);

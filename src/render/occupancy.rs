@@ -249,6 +249,47 @@ impl OccupancyGrid {
         }
     }
 
+    /// The occupancy gradient at `v`: `Σ o / |o|²` over the occupied
+    /// neighbours `v + o` (26-neighbourhood); its negation is the smooth
+    /// normal. A voxel not on its brick's border reads the 3×3×3 block
+    /// straight from the brick's mask (three words, nine 3-bit rows).
+    pub fn occupancy_gradient(&self, v: Voxel) -> glam::DVec3 {
+        let l = v & 7;
+        let interior =
+            self.in_grid(v) && l.cmpge(IVec3::ONE).all() && l.cmple(IVec3::splat(6)).all();
+        let mut g = glam::DVec3::ZERO;
+        if interior {
+            let m = &self.bricks[self.slot_of(v) as usize].occ;
+            for dz in -1..=1i32 {
+                let word = m[(l.z + dz) as usize];
+                for dy in -1..=1i32 {
+                    let row = word >> (8 * (l.y + dy) + l.x - 1) & 7;
+                    if row == 0 {
+                        continue;
+                    }
+                    for dx in -1..=1i32 {
+                        if row >> (dx + 1) & 1 == 1 && (dx, dy, dz) != (0, 0, 0) {
+                            let o = IVec3::new(dx, dy, dz);
+                            g += o.as_dvec3() / o.length_squared() as f64;
+                        }
+                    }
+                }
+            }
+            return g;
+        }
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let o = IVec3::new(dx, dy, dz);
+                    if o != IVec3::ZERO && self.is_occupied(v + o) {
+                        g += o.as_dvec3() / o.length_squared() as f64;
+                    }
+                }
+            }
+        }
+        g
+    }
+
     /// The proximity cloud's value at the brick of voxel `v`.
     pub fn brick_distance(&self, v: Voxel) -> u8 {
         self.dist[self.brick_index(v >> 3)]
@@ -355,6 +396,36 @@ pub(crate) fn chessboard_distance(dims: [i32; 3], seed: impl Fn(usize) -> bool) 
 mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
+
+    /// The in-brick gradient equals the neighbour-by-neighbour sum.
+    #[test]
+    fn gradient_fast_path_matches_lookups() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(6);
+        let dims = [20, 19, 21];
+        let mut g = BrickGrid::new();
+        for _ in 0..2500 {
+            g.insert(IVec3::new(
+                rng.random_range(0..20),
+                rng.random_range(0..19),
+                rng.random_range(0..21),
+            ));
+        }
+        let occ = OccupancyGrid::new(&g, dims, MemoryLimit::DEFAULT).unwrap();
+        for z in 0..21 {
+            for y in 0..19 {
+                for x in 0..20 {
+                    let v = IVec3::new(x, y, z);
+                    let mut want = glam::DVec3::ZERO;
+                    for o in (0..27).map(|i| IVec3::new(i % 3 - 1, i / 3 % 3 - 1, i / 9 - 1)) {
+                        if o != IVec3::ZERO && g.contains(v + o) && occ.in_grid(v + o) {
+                            want += o.as_dvec3() / o.length_squared() as f64;
+                        }
+                    }
+                    assert!((occ.occupancy_gradient(v) - want).length() < 1e-12, "{v}");
+                }
+            }
+        }
+    }
 
     /// Proximity flags equal a brute-force one-voxel dilation, brick
     /// borders included; the proximity cloud equals brute-force Chebyshev
