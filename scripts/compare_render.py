@@ -25,6 +25,7 @@ Inputs (prepared in --work, default target/compare_render/):
 What runs, per case and round, alternately (voxkit then VTK, the other way round on even
 rounds, so that a slow phase of the shared machine hits both tools):
   voxkit  target/release/voxkit render X -o OUT.png --size WxH --view iso --json
+          --reps R (the median of R renders of the frame, as VTK's R timed frames);
           binary grids: --ray 6|26|adaptive|aw, each with and without --no-skip;
           volumes: --volume mip|composite|iso (--iso 1000 for the CT head, 0.3 for the blobs).
           Timing runs are separate from the `--measure` run (round 1 only) that counts the pixels
@@ -371,14 +372,15 @@ def main():
             base = [VOXKIT, "render", case["path"], "-o", png, "--size", a.size, "--json"] + c["args"]
             if a.view:
                 base += ["--view", a.view]
-            if rnd == 1 and case["binary"]:
+            if rnd == 1:
                 m = run(base + ["--measure"], timeout=a.timeout, cwd=ROOT)
                 log(dict(kind="run", tool="voxkit", purpose="measure", case=case["name"], mode=c["mode"],
                          skip=c["skip"], round=rnd, **m))
                 if m["json"] is not None:
                     measured[key] = m["json"].get("differing_pixels")
             waited = wait_quiet(a.wait_quiet, a.quiet_share) if a.wait_quiet > 0 else (0.0, None)
-            r = run(base, timeout=a.timeout, cwd=ROOT)
+            # Warm frames, as VTK's: the median of `reps` renders in one process.
+            r = run(base + ["--reps", str(reps)], timeout=a.timeout, cwd=ROOT)
             r["waited_quiet_s"], r["share_before"] = waited
             log(dict(kind="run", tool="voxkit", purpose="time", case=case["name"], mode=c["mode"],
                      skip=c["skip"], round=rnd, **r))

@@ -5,7 +5,7 @@
 //! `dims`, `voxels`, `ray`, `skip`, `size`, `rays`, `hits`,
 //! `voxels_visited`, `bricks_skipped`, `load_ms` (reading, and voxelizing a
 //! mesh), `prepare_ms` (render structures), `render_ms` (per frame; the
-//! median with `--turntable`), `frames`, `memory_bytes` (render structures
+//! median over `--turntable` frames and `--reps` repetitions), `frames`, `memory_bytes` (render structures
 //! plus image buffers), `peak_rss_mib` and, with `--measure`, the error
 //! measures (`differing_pixels` against the 6-ray and, for meshes,
 //! `mesh_depth_mean`, `mesh_depth_max`, `silhouette_disagree`).
@@ -169,6 +169,9 @@ pub struct RenderArgs {
     /// Write N frames around the vertical axis.
     #[arg(long, value_name = "N")]
     pub turntable: Option<u32>,
+    /// Render each frame N times and report the median time (benchmarking).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub reps: u32,
     /// Normals for shading: smooth (occupancy or value gradient) or the entry face.
     #[arg(long, value_enum, default_value = "smooth")]
     pub normals: NormalsArg,
@@ -405,6 +408,9 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     if frames == 0 {
         return Err(CliError::bad_input("--turntable needs at least one frame"));
     }
+    if args.reps == 0 {
+        return Err(CliError::bad_input("--reps needs at least one render"));
+    }
     let outputs = frame_paths(&args.output, args.turntable)?;
     for p in outputs.iter().chain(args.exr.iter()) {
         if !args.force && p.exists() {
@@ -507,8 +513,13 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         } else {
             base_cam
         };
-        let (img, stats) = renderer.render(&xf, &cam, &opts)?;
-        times.push(stats.render_ms);
+        let mut rendered = renderer.render(&xf, &cam, &opts)?;
+        times.push(rendered.1.render_ms);
+        for _ in 1..args.reps {
+            rendered = renderer.render(&xf, &cam, &opts)?;
+            times.push(rendered.1.render_ms);
+        }
+        let (img, stats) = rendered;
         let rgba = img.to_rgba8(opts.background);
         if is_gif(&args.output) {
             gif_frames.push(rgba);
