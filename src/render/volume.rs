@@ -12,7 +12,8 @@
 //! # The ray's stretch in a voxel
 //! Positions along a ray are world distances `t` from its origin (the eye,
 //! or the eye plane for orthographic cameras); `[t0, t1]` is the ray's way
-//! through the volume (the hull of the voxel cubes, from `t = 0` on). The stretch of a visited voxel is
+//! through the volume (the hull of the voxel cubes, from `t = 0` on). The
+//! stretch of a visited voxel is
 //! - for the 6-ray, the adaptive ray and Amanatides–Woo: the chord of the
 //!   continuous ray through the voxel's cube (entry to exit, clipped to
 //!   `[t0, t1]`). For the 6-ray the chords of the visited voxels tile
@@ -20,8 +21,8 @@
 //! - for the 26-ray, which visits one voxel per column along the major axis
 //!   `m`: the ray's stretch through the voxel's *column* (the slab
 //!   `|g_m − v_m| ≤ ½`, clipped to `[t0, t1]`), so the visited voxels again
-//!   tile the ray; where the 26-line holds two voxels of one column (at its
-//!   ends) the second one gets an empty stretch.
+//!   tile the ray; where the 26-line holds two voxels of one column (in its
+//!   short prefix or suffix) the second one gets an empty stretch.
 //!
 //! The trilinear sample point is the stretch's midpoint clamped to the
 //! voxel's cube, so a sample lies between the minimum and the maximum of
@@ -54,7 +55,7 @@
 //!
 //! NaN samples are stored as `−∞`: they never hold a maximum, never reach
 //! an iso value, and take the transfer function's opacity at its lowest
-//! point.
+//! point; a trilinear sample with a positive weight on one is `−∞` too.
 //!
 //! # Skipping and adaptive flags
 //! [`VolumeScene`] keeps per 8³ brick the minimum and maximum of the values
@@ -86,7 +87,7 @@
 //! # Walking
 //! A ray steps through a brick first, recording voxels and linear indices
 //! (moved by per-move offsets, no 3D→1D per voxel), and then reads them:
-//! the reads are independent, so their cache misses overlap. The 6-ray
+//! the reads depend neither on each other nor on the stepping. The 6-ray
 //! steps the tripod's state directly, the adaptive ray that state in
 //! flagged bricks and the line engine's core elsewhere (same voxels as the
 //! core throughout: tested); pixels run in bands of rows, column by column,
@@ -1235,8 +1236,9 @@ fn walk_adaptive<A: Accum, const TRI: bool>(
     }
 }
 
-/// Walks one ray of an exact kind (the line engine's core: 6, 26,
-/// adaptive) over `seg`, feeding `acc`.
+/// Walks one ray of an exact kind on the line engine's core over `seg`,
+/// feeding `acc`: the 26-ray, and the 6-ray and the adaptive ray on wide
+/// frames (the reference the specialised walks are tested against).
 fn walk_exact<A: Accum, const TRI: bool, const KIND: u8>(
     ctx: &FrameCtx,
     g: &RayGeom,
