@@ -12,7 +12,8 @@
 //! # The ray's stretch in a voxel
 //! Positions along a ray are world distances `t` from its origin (the eye,
 //! or the eye plane for orthographic cameras); `[t0, t1]` is the ray's way
-//! through the volume (the hull of the voxel cubes, from `t = 0` on). The stretch of a visited voxel is
+//! through the volume (the hull of the voxel cubes, from `t = 0` on). The
+//! stretch of a visited voxel is
 //! - for the 6-ray, the adaptive ray and Amanatides–Woo: the chord of the
 //!   continuous ray through the voxel's cube (entry to exit, clipped to
 //!   `[t0, t1]`). For the 6-ray the chords of the visited voxels tile
@@ -20,8 +21,8 @@
 //! - for the 26-ray, which visits one voxel per column along the major axis
 //!   `m`: the ray's stretch through the voxel's *column* (the slab
 //!   `|g_m − v_m| ≤ ½`, clipped to `[t0, t1]`), so the visited voxels again
-//!   tile the ray; where the 26-line holds two voxels of one column (at its
-//!   ends) the second one gets an empty stretch.
+//!   tile the ray; where the 26-line holds two voxels of one column (in its
+//!   short prefix or suffix) the second one gets an empty stretch.
 //!
 //! The trilinear sample point is the stretch's midpoint clamped to the
 //! voxel's cube, so a sample lies between the minimum and the maximum of
@@ -54,7 +55,7 @@
 //!
 //! NaN samples are stored as `−∞`: they never hold a maximum, never reach
 //! an iso value, and take the transfer function's opacity at its lowest
-//! point.
+//! point; a trilinear sample with a positive weight on one is `−∞` too.
 //!
 //! # Skipping and adaptive flags
 //! [`VolumeScene`] keeps per 8³ brick the minimum and maximum of the values
@@ -76,10 +77,21 @@
 //! proximity clouds) lets a ray jump, in O(1) (the line core's `jump`,
 //! [`AwStepper::jump_past_box`]), the whole box of skippable bricks around
 //! its brick; the adaptive ray in 26 mode jumps only boxes of unflagged
-//! bricks (where stepping would stay in 26 mode). MIP also jumps any brick
-//! whose maximum does not exceed the running maximum. Skipped voxels
+//! bricks (where stepping would stay in 26 mode). MIP also jumps, from a
+//! brick whose maximum does not exceed the running maximum, the largest
+//! aligned block of `2^l` bricks per side (`l ≤ 4`) around it that does not
+//! either (a max pyramid over the bricks, built per frame). Skipped voxels
 //! contribute nothing and every voxel's contribution depends only on the
 //! voxel and the ray, so skipping changes no pixel, for every ray kind.
+//!
+//! # Walking
+//! A ray steps through a brick first, recording voxels and linear indices
+//! (moved by per-move offsets, no 3D→1D per voxel), and then reads them:
+//! the reads depend neither on each other nor on the stepping. The 6-ray
+//! steps the tripod's state directly, the adaptive ray that state in
+//! flagged bricks and the line engine's core elsewhere (same voxels as the
+//! core throughout: tested); pixels run in bands of rows, column by column,
+//! for cache reuse between neighbouring rays.
 
 use std::time::Instant;
 
@@ -93,6 +105,7 @@ use crate::line::Segment;
 use crate::line::adaptive::{Core, RayMode};
 use crate::line::amanatides_woo::AwStepper;
 use crate::line::segment::Frame;
+use crate::line::tripod6::{JUMP_MAX_DELTA, JUMP_MAX_EXTENT, TripodState};
 
 use super::cast::CastCounters;
 use super::occupancy::chessboard_distance;
@@ -583,6 +596,10 @@ struct FrameCtx<'a> {
     dims: [i32; 3],
     /// Brick ranges index: 0 nearest, 1 trilinear.
     r: usize,
+    /// MIP with skipping: per level `l ≥ 1`, the blocks' extents (in
+    /// blocks) and the largest sample over each block of `2^l` bricks per
+    /// side.
+    pyramid: Vec<([i32; 3], Vec<f32>)>,
 }
 
 impl<'a> FrameCtx<'a> {
@@ -630,6 +647,11 @@ impl<'a> FrameCtx<'a> {
                 })
                 .collect()
         };
+        let pyramid = if opts.skip && vopts.mode == VolumeMode::Mip {
+            max_pyramid(scene.bdims, bricks.iter().map(|b| b.max[r]).collect())
+        } else {
+            Vec::new()
+        };
         FrameCtx {
             scene,
             vopts,
@@ -639,9 +661,38 @@ impl<'a> FrameCtx<'a> {
             strides: scene.values.strides(),
             dims,
             r,
+            pyramid,
         }
     }
 }
+
+/// Levels `1..=`[`PYRAMID_LEVELS`] of a max pyramid over per-brick maxima
+/// (`bdims` bricks): each level's extents and maxima over blocks of `2^l`
+/// bricks per side.
+fn max_pyramid(bdims: [i32; 3], mut below: Vec<f32>) -> Vec<([i32; 3], Vec<f32>)> {
+    let mut out = Vec::new();
+    let mut d = bdims;
+    while out.len() < PYRAMID_LEVELS && d.iter().any(|&x| x > 1) {
+        let up = d.map(|x| (x + 1) / 2);
+        let mut level = vec![f32::NEG_INFINITY; (up[0] * up[1] * up[2]) as usize];
+        for z in 0..d[2] {
+            for y in 0..d[1] {
+                for x in 0..d[0] {
+                    let i = (x / 2 + up[0] * (y / 2 + up[1] * (z / 2))) as usize;
+                    level[i] = level[i].max(below[(x + d[0] * (y + d[1] * z)) as usize]);
+                }
+            }
+        }
+        out.push((up, level.clone()));
+        below = level;
+        d = up;
+    }
+    out
+}
+
+/// Levels of the MIP max pyramid: blocks of up to 16 bricks (128 voxels,
+/// the longest O(1) jump) per side.
+const PYRAMID_LEVELS: usize = 4;
 
 /// A pixel ray's continuous geometry, for stretches and sample points.
 #[derive(Clone, Copy)]
@@ -770,11 +821,12 @@ trait Accum {
     /// Takes a visited voxel's sample and stretch length (world units);
     /// `true` ends the ray.
     fn visit(&mut self, v: IVec3, s: f32, len: f64) -> bool;
-    /// Whether a brick whose samples lie in `[lo, hi]` can be jumped now,
-    /// beyond the frame's static classification.
+    /// A value such that boxes whose samples all lie at or below it can be
+    /// jumped now, beyond the frame's static classification (MIP: the
+    /// running maximum).
     #[inline(always)]
-    fn brick_done(&self, _lo: f32, _hi: f32) -> bool {
-        false
+    fn threshold(&self) -> Option<f32> {
+        None
     }
 }
 
@@ -796,8 +848,8 @@ impl Accum for Mip {
         false
     }
     #[inline(always)]
-    fn brick_done(&self, _lo: f32, hi: f32) -> bool {
-        hi <= self.m
+    fn threshold(&self) -> Option<f32> {
+        Some(self.m)
     }
 }
 
@@ -863,6 +915,9 @@ fn grey(s: f32, (lo, hi): (f32, f32)) -> f32 {
     ((s - lo) / (hi - lo)).clamp(0.0, 1.0)
 }
 
+/// Voxels stepped before they are read (a brick's path has at most 22).
+const BUF: usize = 32;
+
 /// Ray kinds as const parameters.
 const K6: u8 = 0;
 const K26: u8 = 1;
@@ -885,8 +940,305 @@ fn sample<const TRI: bool>(
     }
 }
 
-/// Walks one ray of an exact kind (the line engine's core: 6, 26,
-/// adaptive) over `seg`, feeding `acc`.
+/// Reads the voxels `buf` (world voxel, linear index) that a ray stepped
+/// through, in order, into `acc`; `true` when `acc` ends the ray. Stretches
+/// are chords, or with `column = (major axis, previous column)` (the
+/// 26-ray) the ray's stretch through each voxel's column.
+#[inline(always)]
+fn consume<A: Accum, const TRI: bool>(
+    ctx: &FrameCtx,
+    g: &RayGeom,
+    buf: &[(IVec3, usize)],
+    mut column: Option<(usize, &mut i32)>,
+    acc: &mut A,
+    n: &mut CastCounters,
+) -> bool {
+    let vals = ctx.scene.values.as_slice();
+    for &(v, idx) in buf {
+        n.visited += 1;
+        let st = if !(TRI || A::LEN) {
+            (0.0, 0.0)
+        } else if let Some((major, prev)) = column.as_mut()
+            && g.inv[*major] != 0.0
+        {
+            let c = v[*major];
+            let (a, z) = g.column(*major, c);
+            let repeated = c == **prev;
+            **prev = c;
+            if repeated { (a, a) } else { (a, z) }
+        } else {
+            g.chord(v)
+        };
+        let s = sample::<TRI>(ctx, vals, g, v, idx, st);
+        if acc.visit(v, s, (st.1 - st.0).max(0.0)) {
+            return true;
+        }
+    }
+    false
+}
+
+/// The box of world voxels (inclusive) a ray in brick `b` (index `bi`) may
+/// jump, if any: the bricks within `k − 1` of it (`k`: the brick's
+/// proximity-cloud value), or, where `dynamic` and the accumulator has a
+/// threshold (MIP) that the brick's samples do not exceed, the largest
+/// aligned block of `2^l` bricks per side around it whose samples do not
+/// exceed it either (the frame's max pyramid).
+#[inline(always)]
+fn skip_box<A: Accum>(
+    ctx: &FrameCtx,
+    acc: &A,
+    b: IVec3,
+    bi: usize,
+    k: u8,
+    dynamic: bool,
+) -> Option<(IVec3, IVec3)> {
+    let cloud = |k: u8| {
+        let r = i32::from(k) - 1;
+        ((b - r) * BRICK, (b + r + 1) * BRICK - 1)
+    };
+    if k >= 2 {
+        return Some(cloud(k));
+    }
+    if dynamic
+        && let Some(m) = acc.threshold()
+        && ctx.scene.bricks[bi].max[ctx.r] <= m
+    {
+        let mut l = 0;
+        while let Some((dims, maxima)) = ctx.pyramid.get(l) {
+            let p = b >> (l as i32 + 1);
+            if maxima[(p.x + dims[0] * (p.y + dims[1] * p.z)) as usize] > m {
+                break;
+            }
+            l += 1;
+        }
+        let base = (b >> l as i32) << l as i32;
+        return Some((base * BRICK, (base + (1 << l)) * BRICK - 1));
+    }
+    (k == 1).then(|| cloud(1))
+}
+
+/// The extent ahead of local voxel `c` (world `v`) of the world box
+/// `[lo, hi]` along each local axis, clipped to the end voxel; `None` if the
+/// end voxel lies in the box (the rest of the ray does).
+#[inline(always)]
+fn box_ahead(f: &Frame, v: IVec3, c: [i64; 3], lo: IVec3, hi: IVec3) -> Option<[i64; 3]> {
+    let h: [i64; 3] = std::array::from_fn(|j| {
+        let w = f.perm[j];
+        i64::from(if f.sign[j] > 0 {
+            hi[w] - v[w]
+        } else {
+            v[w] - lo[w]
+        })
+        .min(f.end[j] - c[j])
+    });
+    (0..3).any(|j| c[j] + h[j] < f.end[j]).then_some(h)
+}
+
+/// Walks one 6-ray (the tripod line) over `seg`, feeding `acc`: the
+/// tripod's own stepping state in registers (the core's 6 mode without
+/// the mode tests) and its O(1) box exit for jumps, as
+/// [`Core`]'s 6 mode does. Wide frames (beyond `i64` decision variables)
+/// take the core.
+fn walk_six<A: Accum, const TRI: bool>(
+    ctx: &FrameCtx,
+    g: &RayGeom,
+    seg: &Segment,
+    acc: &mut A,
+    n: &mut CastCounters,
+) {
+    let f = Frame::new(seg);
+    if f.wide {
+        return walk_exact::<A, TRI, K6>(ctx, g, seg, acc, n);
+    }
+    let scene = ctx.scene;
+    let te = f.tripod_steps() as i64;
+    let mut st = TripodState::<i64>::at(&f, [0; 3]);
+    let ws = f.world_steps();
+    let [sx, sy, sz] = ctx.strides;
+    let off: [isize; 3] = ws.map(|s| s.x as isize * sx + s.y as isize * sy + s.z as isize * sz);
+    let v0 = IVec3::from_array(f.v0.map(|x| x as i32));
+    let local = |v: IVec3| -> [i64; 3] {
+        std::array::from_fn(|j| i64::from(v[f.perm[j]] - v0[f.perm[j]]) * f.sign[j])
+    };
+    let jumps = f.d[0] <= JUMP_MAX_DELTA;
+    let mut v = v0;
+    let mut idx = scene.index(v);
+    let mut t: i64 = 0;
+    let mut buf = [(IVec3::ZERO, 0usize); BUF];
+    loop {
+        let b = v >> 3;
+        let bi = scene.brick_index(b);
+        if ctx.opts.skip
+            && let Some((lo, hi)) = skip_box(ctx, acc, b, bi, ctx.class[bi].skip, true)
+        {
+            let c = local(v);
+            let Some(h) = box_ahead(&f, v, c, lo, hi) else {
+                // The rest of the ray lies in the box: nothing to see.
+                break;
+            };
+            if jumps {
+                let delta = st.exit_box(h.map(|x| x.min(JUMP_MAX_EXTENT)));
+                n.jumps += 1;
+                let c: [i64; 3] = std::array::from_fn(|j| c[j] + delta[j]);
+                v = f.voxel_world(c);
+                idx = scene.index(v);
+                t = c.iter().sum();
+                continue;
+            }
+        }
+        let mut cnt = 0;
+        let mut ended = false;
+        loop {
+            buf[cnt] = (v, idx);
+            cnt += 1;
+            if t >= te {
+                ended = true;
+                break;
+            }
+            let axis = st.step();
+            v += ws[axis];
+            idx = idx.wrapping_add_signed(off[axis]);
+            t += 1;
+            if v >> 3 != b || cnt == BUF {
+                break;
+            }
+        }
+        if consume::<A, TRI>(ctx, g, &buf[..cnt], None, acc, n) || ended {
+            break;
+        }
+    }
+}
+
+/// Walks one adaptive ray over `seg`, feeding `acc`. The flags are constant
+/// per brick, so the ray runs 6-connected through every flagged brick:
+/// there it steps its own tripod state (as [`walk_six`]); through
+/// unflagged bricks it steps the line engine's [`Core`], set up in 6 mode at
+/// the brick's first voxel, whose steps switch to 26 mode where the
+/// adaptive rule allows. That is exactly the core's own walk (a core
+/// entering a flagged voxel in 26 mode restarts its tripod there; the
+/// tripod's state at a voxel depends only on the voxel), without the core's
+/// per-step mode tests where every voxel is flagged. Wide frames take the
+/// core throughout.
+fn walk_adaptive<A: Accum, const TRI: bool>(
+    ctx: &FrameCtx,
+    g: &RayGeom,
+    seg: &Segment,
+    acc: &mut A,
+    n: &mut CastCounters,
+) {
+    let f = Frame::new(seg);
+    if f.wide {
+        return walk_exact::<A, TRI, KAD>(ctx, g, seg, acc, n);
+    }
+    let scene = ctx.scene;
+    let te = f.tripod_steps() as i64;
+    let mut tri = TripodState::<i64>::at(&f, [0; 3]);
+    // The core while the ray is in an unflagged brick.
+    let mut core: Option<Core> = None;
+    let ws = f.world_steps();
+    let steps = f.mask_steps();
+    let [sx, sy, sz] = ctx.strides;
+    let off: [isize; 8] = steps.map(|s| s.x as isize * sx + s.y as isize * sy + s.z as isize * sz);
+    let v0 = IVec3::from_array(f.v0.map(|x| x as i32));
+    let local = |v: IVec3| -> [i64; 3] {
+        std::array::from_fn(|j| i64::from(v[f.perm[j]] - v0[f.perm[j]]) * f.sign[j])
+    };
+    let jumps = f.d[0] <= JUMP_MAX_DELTA;
+    let mut v = v0;
+    let mut idx = scene.index(v);
+    let mut t: i64 = 0;
+    let mut buf = [(IVec3::ZERO, 0usize); BUF];
+    loop {
+        let b = v >> 3;
+        let bi = scene.brick_index(b);
+        let class = ctx.class[bi];
+        let flagged = class.flag == 0;
+        let c = local(v);
+        if flagged && core.take().is_some() {
+            // 26 mode reaching a flagged voxel goes 6 here; a core already
+            // in 6 mode has this very state.
+            tri = TripodState::at(&f, c);
+        }
+        if ctx.opts.skip {
+            let in26 = core.as_ref().is_some_and(|k| k.mode == RayMode::TwentySix);
+            let k = if in26 { class.flag } else { class.skip };
+            if let Some((lo, hi)) = skip_box(ctx, acc, b, bi, k, !in26) {
+                let Some(h) = box_ahead(&f, v, c, lo, hi) else {
+                    // The rest of the ray lies in the box: nothing to see.
+                    break;
+                };
+                let jumped = match core.as_mut() {
+                    Some(k) => k.jump(h).is_some(),
+                    None if jumps => {
+                        let delta = tri.exit_box(h.map(|x| x.min(JUMP_MAX_EXTENT)));
+                        let c: [i64; 3] = std::array::from_fn(|j| c[j] + delta[j]);
+                        t = c.iter().sum();
+                        v = f.voxel_world(c);
+                        true
+                    }
+                    None => false,
+                };
+                if jumped {
+                    n.jumps += 1;
+                    if let Some(k) = &core {
+                        t = k.c.iter().sum();
+                        v = f.voxel_world(k.c);
+                    }
+                    idx = scene.index(v);
+                    continue;
+                }
+            }
+        }
+        let mut cnt = 0;
+        let mut ended = false;
+        if flagged {
+            loop {
+                buf[cnt] = (v, idx);
+                cnt += 1;
+                if t >= te {
+                    ended = true;
+                    break;
+                }
+                let axis = tri.step();
+                v += ws[axis];
+                idx = idx.wrapping_add_signed(off[1 << axis]);
+                t += 1;
+                if v >> 3 != b || cnt == BUF {
+                    break;
+                }
+            }
+        } else {
+            let k = core.get_or_insert_with(|| Core::at_tripod_in(&f, c));
+            loop {
+                buf[cnt] = (v, idx);
+                cnt += 1;
+                if t >= te {
+                    ended = true;
+                    break;
+                }
+                let was = k.mode;
+                let mask = k.step_on(false);
+                v += steps[mask];
+                idx = idx.wrapping_add_signed(off[mask]);
+                t += i64::from(mask.count_ones());
+                if t > te {
+                    ended = true;
+                    break;
+                }
+                if v >> 3 != b || (ctx.opts.skip && was != k.mode) || cnt == BUF {
+                    break;
+                }
+            }
+        }
+        if consume::<A, TRI>(ctx, g, &buf[..cnt], None, acc, n) || ended {
+            break;
+        }
+    }
+}
+
+/// Walks one ray of an exact kind on the line engine's core over `seg`,
+/// feeding `acc`: the 26-ray, and the 6-ray and the adaptive ray on wide
+/// frames (the reference the specialised walks are tested against).
 fn walk_exact<A: Accum, const TRI: bool, const KIND: u8>(
     ctx: &FrameCtx,
     g: &RayGeom,
@@ -895,7 +1247,6 @@ fn walk_exact<A: Accum, const TRI: bool, const KIND: u8>(
     n: &mut CastCounters,
 ) {
     let scene = ctx.scene;
-    let vals = scene.values.as_slice();
     let f = Frame::new(seg);
     let te = f.tripod_steps() as i64;
     let mut core = if KIND == K26 {
@@ -907,13 +1258,13 @@ fn walk_exact<A: Accum, const TRI: bool, const KIND: u8>(
     let [sx, sy, sz] = ctx.strides;
     let off: [isize; 8] = steps.map(|s| s.x as isize * sx + s.y as isize * sy + s.z as isize * sz);
     let major = f.perm[0];
-    let need_stretch = TRI || A::LEN;
     let mut v = f.voxel_world(core.c);
     let mut idx = scene.index(v);
     let mut t: i64 = core.c.iter().sum();
     // The 26-ray's previous column (a repeated column gets no stretch).
     let mut prev_col = i32::MIN;
-    'ray: loop {
+    let mut buf = [(IVec3::ZERO, 0usize); BUF];
+    loop {
         if t > te {
             break;
         }
@@ -922,28 +1273,12 @@ fn walk_exact<A: Accum, const TRI: bool, const KIND: u8>(
         let class = ctx.class[bi];
         let in26 = KIND == KAD && core.mode == RayMode::TwentySix;
         if ctx.opts.skip {
-            let br = &scene.bricks[bi];
             let k = if in26 { class.flag } else { class.skip };
-            let k = if k == 0 && !in26 && acc.brick_done(br.min[ctx.r], br.max[ctx.r]) {
-                1
-            } else {
-                k
-            };
-            if k >= 1 {
-                let r = i32::from(k) - 1;
-                let (lo, hi) = ((b - r) * BRICK, (b + r + 1) * BRICK - 1);
-                let h: [i64; 3] = std::array::from_fn(|j| {
-                    let w = f.perm[j];
-                    i64::from(if f.sign[j] > 0 {
-                        hi[w] - v[w]
-                    } else {
-                        v[w] - lo[w]
-                    })
-                });
-                // The rest of the ray lies in the box: nothing left to see.
-                if (0..3).all(|j| core.c[j] + h[j] >= f.end[j]) {
+            if let Some((lo, hi)) = skip_box(ctx, acc, b, bi, k, !in26) {
+                let Some(h) = box_ahead(&f, v, core.c, lo, hi) else {
+                    // The rest of the ray lies in the box: nothing to see.
                     break;
-                }
+                };
                 if core.jump(h).is_some() {
                     n.jumps += 1;
                     v = f.voxel_world(core.c);
@@ -959,25 +1294,18 @@ fn walk_exact<A: Accum, const TRI: bool, const KIND: u8>(
             K26 => false,
             _ => class.flag == 0,
         };
+        // Step through the brick first, then read its voxels: the reads
+        // are independent of each other and of the stepping, so they
+        // overlap (a ray through a large volume misses the cache at most
+        // voxels).
+        let mut cnt = 0;
+        let mut ended = false;
         loop {
-            n.visited += 1;
-            let st = if !need_stretch {
-                (0.0, 0.0)
-            } else if KIND == K26 && g.inv[major] != 0.0 {
-                let c = v[major];
-                let (a, z) = g.column(major, c);
-                let repeated = c == prev_col;
-                prev_col = c;
-                if repeated { (a, a) } else { (a, z) }
-            } else {
-                g.chord(v)
-            };
-            let s = sample::<TRI>(ctx, vals, g, v, idx, st);
-            if acc.visit(v, s, (st.1 - st.0).max(0.0)) {
-                break 'ray;
-            }
+            buf[cnt] = (v, idx);
+            cnt += 1;
             if t >= te {
-                break 'ray;
+                ended = true;
+                break;
             }
             let was = core.mode;
             let mask = core.step_on(flag);
@@ -985,11 +1313,16 @@ fn walk_exact<A: Accum, const TRI: bool, const KIND: u8>(
             idx = idx.wrapping_add_signed(off[mask]);
             t += i64::from(mask.count_ones());
             if t > te {
-                break 'ray;
-            }
-            if v >> 3 != b || (KIND == KAD && ctx.opts.skip && was != core.mode) {
+                ended = true;
                 break;
             }
+            if v >> 3 != b || (KIND == KAD && ctx.opts.skip && was != core.mode) || cnt == BUF {
+                break;
+            }
+        }
+        let column = (KIND == K26).then_some((major, &mut prev_col));
+        if consume::<A, TRI>(ctx, g, &buf[..cnt], column, acc, n) || ended {
+            break;
         }
     }
 }
@@ -1003,52 +1336,47 @@ fn walk_aw<A: Accum, const TRI: bool>(
     n: &mut CastCounters,
 ) {
     let scene = ctx.scene;
-    let vals = scene.values.as_slice();
     let [a, b] = [seg.a(), seg.b()].map(|p| DVec3::from_array(p.map(crate::fixed::to_f64)));
     let Ok(mut s) = AwStepper::new(a, b) else {
         return;
     };
     let dir = s.direction();
     let off: [isize; 3] = std::array::from_fn(|k| dir[k] as isize * ctx.strides[k]);
-    let need_stretch = TRI || A::LEN;
     let mut v = s.voxel();
     let mut idx = scene.index(v);
-    'ray: loop {
+    let mut buf = [(IVec3::ZERO, 0usize); BUF];
+    loop {
         let bk = v >> 3;
         let bi = scene.brick_index(bk);
-        if ctx.opts.skip {
-            let br = &scene.bricks[bi];
-            let k = match ctx.class[bi].skip {
-                0 if acc.brick_done(br.min[ctx.r], br.max[ctx.r]) => 1,
-                k => k,
-            };
-            if k >= 1 {
-                let r = i32::from(k) - 1;
-                if !s.jump_past_box((bk - r) * BRICK, (bk + r + 1) * BRICK - 1) {
-                    break;
-                }
-                n.jumps += 1;
-                v = s.voxel();
-                idx = scene.index(v);
-                continue;
+        if ctx.opts.skip
+            && let Some((lo, hi)) = skip_box(ctx, acc, bk, bi, ctx.class[bi].skip, true)
+        {
+            if !s.jump_past_box(lo, hi) {
+                break;
             }
+            n.jumps += 1;
+            v = s.voxel();
+            idx = scene.index(v);
+            continue;
         }
+        let mut cnt = 0;
+        let mut ended = false;
         loop {
-            n.visited += 1;
-            let st = if need_stretch { g.chord(v) } else { (0.0, 0.0) };
-            let smp = sample::<TRI>(ctx, vals, g, v, idx, st);
-            if acc.visit(v, smp, (st.1 - st.0).max(0.0)) {
-                break 'ray;
-            }
+            buf[cnt] = (v, idx);
+            cnt += 1;
             let Some(axis) = s.next_axis() else {
-                break 'ray;
+                ended = true;
+                break;
             };
             s.step();
             v[axis] += dir[axis];
             idx = idx.wrapping_add_signed(off[axis]);
-            if v >> 3 != bk {
+            if v >> 3 != bk || cnt == BUF {
                 break;
             }
+        }
+        if consume::<A, TRI>(ctx, g, &buf[..cnt], None, acc, n) || ended {
+            break;
         }
     }
 }
@@ -1063,9 +1391,9 @@ fn cast<A: Accum, const TRI: bool>(
     n: &mut CastCounters,
 ) {
     match ctx.opts.ray {
-        RayKind::Six => walk_exact::<A, TRI, K6>(ctx, g, seg, acc, n),
+        RayKind::Six => walk_six::<A, TRI>(ctx, g, seg, acc, n),
         RayKind::TwentySix => walk_exact::<A, TRI, K26>(ctx, g, seg, acc, n),
-        RayKind::Adaptive => walk_exact::<A, TRI, KAD>(ctx, g, seg, acc, n),
+        RayKind::Adaptive => walk_adaptive::<A, TRI>(ctx, g, seg, acc, n),
         RayKind::AmanatidesWoo => walk_aw::<A, TRI>(ctx, g, seg, acc, n),
     }
 }
@@ -1172,8 +1500,17 @@ fn value_gradient(scene: &VolumeScene, v: IVec3) -> DVec3 {
     g
 }
 
-/// One image row: colours, depths, hits, counters, hit count.
-type Row = (
+/// Rows per band: a band's pixels run column by column, so consecutive rays
+/// are vertical neighbours and a ray's horizontal neighbour was cast
+/// `BAND` rays before, while the voxels they share are still in cache (a
+/// ray through a large volume touches a cache line per voxel; row by row,
+/// the row above is a thousand rays back). Measured on a 1024² MIP of a
+/// 512³ volume (6-ray, no skipping): rows 1630 ms, bands of 4 rows 1350,
+/// 8: 1150, 16: 1130–1220, 32: 1140–1155, 64: 1190.
+const BAND: u32 = 16;
+
+/// One band of rows, row-major: colours, depths, hits, counters, hit count.
+type Band = (
     Vec<[f32; 4]>,
     Vec<f32>,
     Vec<Option<IVec3>>,
@@ -1184,7 +1521,7 @@ type Row = (
 /// Renders a scalar volume: one discrete ray per pixel of `opts.ray`'s kind
 /// (`opts.skip`: jump bricks that cannot change the pixel, which changes no
 /// pixel), in `vopts.mode` (see the [module docs](self) for exactly what
-/// each mode computes). Rows run in parallel.
+/// each mode computes). Bands of rows run in parallel.
 ///
 /// ```
 /// use glam::{DVec3, IVec3};
@@ -1225,28 +1562,33 @@ pub fn render_volume(
     let start = Instant::now();
     let ctx = FrameCtx::new(scene, camera, opts, vopts);
     let tri = vopts.sampling == Sampling::Trilinear;
-    let rows: Vec<Row> = (0..h)
+    let bands: Vec<Band> = (0..h.div_ceil(BAND))
         .into_par_iter()
-        .map(|y| {
-            let mut row: Row = (
-                Vec::with_capacity(w as usize),
-                Vec::with_capacity(w as usize),
-                Vec::with_capacity(w as usize),
+        .map(|band| {
+            let (y0, y1) = (band * BAND, (band * BAND + BAND).min(h));
+            let len = ((y1 - y0) * w) as usize;
+            let mut out: Band = (
+                vec![[0.0; 4]; len],
+                vec![0.0; len],
+                vec![None; len],
                 CastCounters::default(),
                 0,
             );
             for x in 0..w {
-                let (c, d, v) = if tri {
-                    render_pixel::<true>(&ctx, x, y, &mut row.3)
-                } else {
-                    render_pixel::<false>(&ctx, x, y, &mut row.3)
-                };
-                row.0.push(c);
-                row.1.push(d);
-                row.2.push(v);
-                row.4 += u64::from(v.is_some());
+                for y in y0..y1 {
+                    let (c, d, v) = if tri {
+                        render_pixel::<true>(&ctx, x, y, &mut out.3)
+                    } else {
+                        render_pixel::<false>(&ctx, x, y, &mut out.3)
+                    };
+                    let i = ((y - y0) * w + x) as usize;
+                    out.0[i] = c;
+                    out.1[i] = d;
+                    out.2[i] = v;
+                    out.4 += u64::from(v.is_some());
+                }
             }
-            row
+            out
         })
         .collect();
     let n = (w as usize) * (h as usize);
@@ -1261,7 +1603,7 @@ pub fn render_volume(
         rays: n as u64,
         ..RenderStats::default()
     };
-    for (c, d, v, cn, hits) in rows {
+    for (c, d, v, cn, hits) in bands {
         img.color.extend(c);
         img.depth.extend(d);
         img.hit.extend(v);
@@ -1316,6 +1658,36 @@ mod tests {
         }
     }
 
+    /// Each pyramid level holds the maxima over its blocks of bricks.
+    #[test]
+    fn max_pyramid_matches_brute_force() {
+        let bdims = [7, 3, 5];
+        let n = 7 * 3 * 5;
+        let maxima: Vec<f32> = (0..n).map(|i| ((i * 37) % 101) as f32).collect();
+        let pyr = max_pyramid(bdims, maxima.clone());
+        assert_eq!(pyr.len(), 3); // 4×2×3, 2×1×2, 1×1×1 blocks
+        for (l, (dims, level)) in pyr.iter().enumerate() {
+            let s = 1 << (l + 1);
+            for (i, &got) in level.iter().enumerate() {
+                let i = i as i32;
+                let p = IVec3::new(
+                    i % dims[0],
+                    (i / dims[0]) % dims[1],
+                    i / (dims[0] * dims[1]),
+                );
+                let want = (0..n)
+                    .filter(|&j| {
+                        let j = j as i32;
+                        let b = IVec3::new(j % 7, (j / 7) % 3, j / 21);
+                        b / s == p
+                    })
+                    .map(|j| maxima[j])
+                    .fold(f32::NEG_INFINITY, f32::max);
+                assert_eq!(got, want, "level {} block {p}", l + 1);
+            }
+        }
+    }
+
     /// Trilinear reproduces a linear function inside the volume, clamps at
     /// the border, and ignores `−∞` corners of weight 0.
     #[test]
@@ -1358,6 +1730,89 @@ mod tests {
             lerp(f32::INFINITY, f32::NEG_INFINITY, 0.5),
             f32::NEG_INFINITY
         );
+    }
+
+    /// Records the visited voxels.
+    struct Record(Vec<IVec3>);
+
+    impl Accum for Record {
+        const LEN: bool = false;
+        fn visit(&mut self, v: IVec3, _s: f32, _len: f64) -> bool {
+            self.0.push(v);
+            false
+        }
+    }
+
+    /// The specialised walks visit exactly the voxels of the core's walk,
+    /// in order: the 6-ray's tripod state against the core in 6 mode, and
+    /// the adaptive walk (own tripod in flagged bricks, the core elsewhere)
+    /// against the core with the brick flags, on volumes with flagged and
+    /// unflagged bricks and random segments inside them.
+    #[test]
+    fn specialised_walks_equal_the_core() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let mut mixed = 0;
+        for _ in 0..12 {
+            let dims = [
+                rng.random_range(1..50),
+                rng.random_range(1..50),
+                rng.random_range(1..50),
+            ];
+            let n = dims.iter().product::<usize>();
+            let hot: Vec<usize> = (0..3).map(|_| rng.random_range(0..n)).collect();
+            let data: Vec<f32> = (0..n)
+                .map(|i| if hot.contains(&i) { 10.0 } else { 0.0 })
+                .collect();
+            let vol =
+                ScalarVolume::new(dims, VolumeData::F32(data), VolumeFrame::default()).unwrap();
+            let scene = VolumeScene::new(&vol, MemoryLimit::DEFAULT).unwrap();
+            let cam = Camera::orthographic(DVec3::new(0.0, 0.0, 99.0), DVec3::ZERO, DVec3::Y, 4.0);
+            let opts = RenderOptions {
+                ray: RayKind::Adaptive,
+                skip: false,
+                ..RenderOptions::default()
+            };
+            let vopts = VolumeOptions {
+                window: (5.0, 10.0),
+                ..VolumeOptions::new(&vol, VolumeMode::Mip)
+            };
+            let ctx = FrameCtx::new(&scene, &cam, &opts, &vopts);
+            for _ in 0..300 {
+                let p = |rng: &mut rand_chacha::ChaCha8Rng| -> [f64; 3] {
+                    std::array::from_fn(|k| {
+                        let x = rng.random_range(-0.49..dims[k] as f64 - 0.51);
+                        if rng.random_bool(0.2) { x.round() } else { x }
+                    })
+                };
+                let (a, b) = (p(&mut rng), p(&mut rng));
+                let seg = Segment::from_f64(a, b).unwrap();
+                let ray = GridRay {
+                    o: DVec3::from_array(a),
+                    d: (DVec3::from_array(b) - DVec3::from_array(a)).normalize_or(DVec3::X),
+                };
+                let g = RayGeom::new(&ray, ctx.dims);
+                let walk =
+                    |w: fn(&FrameCtx, &RayGeom, &Segment, &mut Record, &mut CastCounters)| {
+                        let mut r = Record(Vec::new());
+                        w(&ctx, &g, &seg, &mut r, &mut CastCounters::default());
+                        r.0
+                    };
+                assert_eq!(
+                    walk(walk_six::<Record, false>),
+                    walk(walk_exact::<Record, false, K6>),
+                    "{seg:?}"
+                );
+                let ad = walk(walk_adaptive::<Record, false>);
+                assert_eq!(ad, walk(walk_exact::<Record, false, KAD>), "{seg:?}");
+                let flagged = ad
+                    .iter()
+                    .filter(|v| ctx.class[scene.brick_index(**v >> 3)].flag == 0)
+                    .count();
+                mixed += usize::from(flagged > 0 && flagged < ad.len());
+            }
+        }
+        assert!(mixed > 300, "{mixed}");
     }
 
     #[test]
