@@ -369,7 +369,7 @@ def main():
         for c in voxkit_configs(case):
             key = (case["name"], c["mode"], c["skip"])
             png = work / "png" / f"{case['name']}_voxkit_{c['mode'].replace(' ', '')}{'' if c['skip'] else '_noskip'}.png"
-            base = [VOXKIT, "render", case["path"], "-o", png, "--size", a.size, "--json"] + c["args"]
+            base = [VOXKIT, "render", case["path"], "-o", png, "--size", a.size, "--json", "--force"] + c["args"]
             if a.view:
                 base += ["--view", a.view]
             if rnd == 1:
