@@ -494,7 +494,15 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         }
     };
     let base_cam = camera(&args, lo, hi, axes)?;
-    let bar = (!args.quiet && std::io::stderr().is_terminal() && frames > 1).then(|| {
+    // A bar over frames; a single frame gets a spinner (drawn from the first
+    // tick, so renders under a tick never show it).
+    let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
+        if frames == 1 {
+            let b = indicatif::ProgressBar::new_spinner();
+            b.set_message("rendering");
+            b.enable_steady_tick(std::time::Duration::from_millis(1000));
+            return b;
+        }
         let b = indicatif::ProgressBar::new(frames as u64);
         b.set_style(
             indicatif::ProgressStyle::with_template(

@@ -36,13 +36,13 @@ use std::time::Instant;
 use glam::{DMat3, DVec3, IVec3};
 use rayon::prelude::*;
 
+pub use crate::camera::{Camera, Projection, SceneAxes, ViewPreset};
 pub use occupancy::{MAX_RENDER_DIM, OccupancyGrid};
 pub use volume::{
     BrickRange, EARLY_TERMINATION, RAMP_OPACITY, Sampling, TfPoint, TransferFunction, VolumeMode,
     VolumeOptions, VolumeScene, differing_values, render_volume,
 };
 
-use crate::camera::Camera;
 use crate::error::{Result, VoxkitError};
 use crate::grid::{GridFrame, MemoryLimit};
 use crate::line::Segment;
