@@ -185,36 +185,25 @@ impl Core {
     /// the local moves, or `None` where no jump applies (a wide frame, the
     /// 26-line's prefix or suffix, the end voxel inside the box).
     pub(crate) fn jump(&mut self, h: [i64; 3]) -> Option<[i64; 3]> {
-        use super::tripod6::{JUMP_MAX_DELTA, JUMP_MAX_EXTENT};
-        if self.f.d[0] > JUMP_MAX_DELTA {
+        if self.f.d[0] > super::tripod6::JUMP_MAX_DELTA {
             return None;
         }
-        let h = h.map(|x| x.clamp(0, JUMP_MAX_EXTENT));
         let delta = match self.mode {
             RayMode::Six => {
                 let AnyTripod::Narrow(s) = &mut self.tri else {
                     return None;
                 };
-                let h: [i64; 3] = std::array::from_fn(|k| h[k].min(self.f.end[k] - self.c[k]));
-                if (0..3).all(|k| self.c[k] + h[k] == self.f.end[k]) {
-                    return None;
-                }
-                s.exit_box(h)
+                s.exit_box_before(h, self.c, self.f.end)?
             }
             RayMode::TwentySix => {
                 let cur = &mut self.cursor;
-                if cur.pre_i < cur.plan.pre.len || cur.mid_left == 0 {
+                if cur.pre_i < cur.plan.pre.len {
                     return None;
                 }
                 let AnyMid::Narrow(s) = &mut cur.mid else {
                     return None;
                 };
-                let delta = s.jump_box(h, cur.mid_left);
-                if delta[0] == 0 {
-                    return None;
-                }
-                cur.mid_left -= delta[0] as u64;
-                delta
+                s.jump_box(h, &mut cur.mid_left)?
             }
         };
         for (ck, dk) in self.c.iter_mut().zip(delta) {

@@ -67,23 +67,26 @@ impl<T: DecisionInt> Mid26State<T> {
 }
 
 impl Mid26State<i64> {
-    /// Jumps ahead `k ≤ max_cols` columns in O(1), to the first column whose
-    /// voxel leaves the local box `[w, w + h]` of the current voxel `w`
-    /// (`0 ≤ h ≤` [`super::tripod6::JUMP_MAX_EXTENT`]), or `max_cols`
-    /// columns if that comes first. Returns the local moves `[k, n_u, n_v]`;
-    /// the state is exactly the one `k` steps reach.
+    /// Jumps ahead `1 ≤ k ≤ mid_left` columns in O(1), to the first column
+    /// whose voxel leaves the local box `[w, w + h]` of the current voxel `w`
+    /// (`h ≥ 0`, clipped here to [`super::tripod6::JUMP_MAX_EXTENT`]), or
+    /// `mid_left` columns if that comes first, and counts them off
+    /// `mid_left`. Returns the local moves `[k, n_u, n_v]` (the state is
+    /// exactly the one `k` steps reach), or `None` where no jump applies:
+    /// no column left, or the state is off a column voxel.
     ///
     /// In the middle of a line `E ∈ [D_u·S − D_m·S, D_u·S)` at every voxel
     /// (both branches of the step keep it there), and then the minor steps
     /// taken in `k` columns are `n(k) = ⌊(E + (k − 1)·D_u·S) / (D_m·S)⌋ + 1`:
     /// the first `k` with `n_u(k) > h_u` is `1 + ⌈(h_u·D_m·S − E) / (D_u·S)⌉`.
-    pub(crate) fn jump_box(&mut self, h: [i64; 3], max_cols: u64) -> [i64; 3] {
+    pub(crate) fn jump_box(&mut self, h: [i64; 3], mid_left: &mut u64) -> Option<[i64; 3]> {
+        let h = h.map(|x| x.clamp(0, super::tripod6::JUMP_MAX_EXTENT));
         let (dm, du, dv) = (self.dm, self.du, self.dv);
         // Off a column voxel (the adaptive ray's first column after a switch
         // back from 6 mode) the closed form does not hold yet: step first.
         if !(self.eu >= du - dm && self.eu < du.max(1) && self.ev >= dv - dm && self.ev < dv.max(1))
         {
-            return [0; 3];
+            return None;
         }
         let first_past = |e: i64, d: i64, hk: i64| -> i64 {
             if d == 0 {
@@ -95,15 +98,16 @@ impl Mid26State<i64> {
         let k = (h[0] + 1)
             .min(first_past(self.eu, du, h[1]))
             .min(first_past(self.ev, dv, h[2]))
-            .min(max_cols as i64);
+            .min(*mid_left as i64);
         if k <= 0 {
-            return [0; 3];
+            return None;
         }
         let nu = (self.eu + (k - 1) * du).div_euclid(dm) + 1;
         let nv = (self.ev + (k - 1) * dv).div_euclid(dm) + 1;
         self.eu += k * du - nu * dm;
         self.ev += k * dv - nv * dm;
-        [k, nu, nv]
+        *mid_left -= k as u64;
+        Some([k, nu, nv])
     }
 }
 

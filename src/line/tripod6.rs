@@ -122,8 +122,9 @@ fn floor_div(a: i64, b: i64) -> i64 {
 
 impl TripodState<i64> {
     /// Moves the state past the local box `[c, c + h]` of the current voxel
-    /// `c` (`0 ≤ h_k ≤` [`JUMP_MAX_EXTENT`], the box already clipped to the
-    /// end voxel, at least one axis ending before it): to the first voxel of
+    /// `c` (`h ≥ 0`, clipped here to [`JUMP_MAX_EXTENT`]; the box already
+    /// clipped to the end voxel, at least one axis ending before it; see
+    /// [`TripodState::exit_box_before`]): to the first voxel of
     /// the tripod path outside the box, in O(1). Returns the local moves
     /// `[δm, δu, δv]`; the state is exactly the one stepping would reach.
     ///
@@ -133,12 +134,12 @@ impl TripodState<i64> {
     /// Along each other axis `j`, the path has crossed the planes `j` crosses
     /// before that one: a count from the pair's variable, one division.
     pub(crate) fn exit_box(&mut self, h: [i64; 3]) -> [i64; 3] {
+        let h = h.map(|x| x.clamp(0, JUMP_MAX_EXTENT));
         let d = [self.dm, self.du, self.dv];
         debug_assert!(
             d.iter()
                 .all(|&x| x < JUMP_MAX_DELTA << crate::fixed::FRAC_BITS)
         );
-        debug_assert!(h.iter().all(|&x| (0..=JUMP_MAX_EXTENT).contains(&x)));
         // Biased variable of ordered pair (i, j) at offset `o` from c.
         let at = |n: usize, o: [i64; 3]| {
             let (i, j) = super::segment::PAIRS[n];
@@ -175,6 +176,25 @@ impl TripodState<i64> {
             self.e[n] += delta[i] * d[j] - delta[j] * d[i];
         }
         delta
+    }
+}
+
+impl TripodState<i64> {
+    /// [`TripodState::exit_box`] for a line at local voxel `c` ending at
+    /// local voxel `end`: the box clipped to the end voxel, `None` (no move)
+    /// if the line ends inside it.
+    pub(crate) fn exit_box_before(
+        &mut self,
+        h: [i64; 3],
+        c: [i64; 3],
+        end: [i64; 3],
+    ) -> Option<[i64; 3]> {
+        let h: [i64; 3] =
+            std::array::from_fn(|k| h[k].clamp(0, JUMP_MAX_EXTENT).min(end[k] - c[k]));
+        if (0..3).all(|k| c[k] + h[k] == end[k]) {
+            return None;
+        }
+        Some(self.exit_box(h))
     }
 }
 

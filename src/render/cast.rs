@@ -25,7 +25,7 @@ use glam::{DVec3, IVec3};
 use crate::line::amanatides_woo::AwStepper;
 use crate::line::line26::{Mid26State, Moves, Plan26};
 use crate::line::segment::{Frame, Segment};
-use crate::line::tripod6::{JUMP_MAX_DELTA, JUMP_MAX_EXTENT, TripodState};
+use crate::line::tripod6::{JUMP_MAX_DELTA, TripodState};
 
 use super::RayKind;
 use super::occupancy::{OccupancyGrid, word_bit};
@@ -96,12 +96,7 @@ impl Stepper for Six {
     }
     #[inline(always)]
     fn jump(&mut self, h: [i64; 3], c: [i64; 3]) -> Option<[i64; 3]> {
-        let h: [i64; 3] =
-            std::array::from_fn(|k| h[k].clamp(0, JUMP_MAX_EXTENT).min(self.end[k] - c[k]));
-        if (0..3).all(|k| c[k] + h[k] == self.end[k]) {
-            return None;
-        }
-        Some(self.s.exit_box(h))
+        self.s.exit_box_before(h, c, self.end)
     }
     #[inline(always)]
     fn mode(&self) -> bool {
@@ -178,12 +173,7 @@ impl Stepper for Adaptive<'_> {
     }
     #[inline(always)]
     fn jump(&mut self, h: [i64; 3], _: [i64; 3]) -> Option<[i64; 3]> {
-        let h = h.map(|x| x.clamp(0, JUMP_MAX_EXTENT));
-        let d = self.mid.jump_box(h, self.mid_left);
-        if d[0] == 0 {
-            return None;
-        }
-        self.mid_left -= d[0] as u64;
+        let d = self.mid.jump_box(h, &mut self.mid_left)?;
         for (ck, dk) in self.c.iter_mut().zip(d) {
             *ck += dk;
         }
@@ -227,13 +217,7 @@ impl Stepper for TwentySix {
     }
     #[inline(always)]
     fn jump(&mut self, h: [i64; 3], _: [i64; 3]) -> Option<[i64; 3]> {
-        let h = h.map(|x| x.clamp(0, JUMP_MAX_EXTENT));
-        let d = self.mid.jump_box(h, self.mid_left);
-        if d[0] == 0 {
-            return None;
-        }
-        self.mid_left -= d[0] as u64;
-        Some(d)
+        self.mid.jump_box(h, &mut self.mid_left)
     }
     #[inline(always)]
     fn mode(&self) -> bool {

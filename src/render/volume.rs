@@ -105,7 +105,7 @@ use crate::line::Segment;
 use crate::line::adaptive::{Core, RayMode};
 use crate::line::amanatides_woo::AwStepper;
 use crate::line::segment::Frame;
-use crate::line::tripod6::{JUMP_MAX_DELTA, JUMP_MAX_EXTENT, TripodState};
+use crate::line::tripod6::{JUMP_MAX_DELTA, TripodState};
 
 use super::cast::CastCounters;
 use super::occupancy::chessboard_distance;
@@ -1077,7 +1077,7 @@ fn walk_six<A: Accum, const TRI: bool>(
                 break;
             };
             if jumps {
-                let delta = st.exit_box(h.map(|x| x.min(JUMP_MAX_EXTENT)));
+                let delta = st.exit_box(h);
                 n.jumps += 1;
                 let c: [i64; 3] = std::array::from_fn(|j| c[j] + delta[j]);
                 v = f.voxel_world(c);
@@ -1170,7 +1170,7 @@ fn walk_adaptive<A: Accum, const TRI: bool>(
                 let jumped = match core.as_mut() {
                     Some(k) => k.jump(h).is_some(),
                     None if jumps => {
-                        let delta = tri.exit_box(h.map(|x| x.min(JUMP_MAX_EXTENT)));
+                        let delta = tri.exit_box(h);
                         let c: [i64; 3] = std::array::from_fn(|j| c[j] + delta[j]);
                         t = c.iter().sum();
                         v = f.voxel_world(c);
