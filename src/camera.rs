@@ -32,7 +32,7 @@ pub enum Projection {
 }
 
 /// A named viewing direction (`--view`), relative to the scene's up axis.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum ViewPreset {
     /// Looking at the scene's front (from the front axis towards the centre).
     Front,

@@ -27,74 +27,6 @@ use crate::render::{
 };
 use crate::voxelize::pipeline::{VoxelizeOptions, voxelize_mesh};
 
-/// `--ray` values.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum RayArg {
-    /// Tripod 6-connected: every voxel the ray passes through (reference).
-    #[value(name = "6")]
-    Six,
-    /// 26-connected: fastest, may slip through diagonal gaps.
-    #[value(name = "26")]
-    TwentySix,
-    /// 26 in empty space, 6 near objects: the 6-ray's image, faster.
-    Adaptive,
-    /// Amanatides–Woo in f64, for comparison.
-    Aw,
-}
-
-impl From<RayArg> for RayKind {
-    fn from(r: RayArg) -> Self {
-        match r {
-            RayArg::Six => RayKind::Six,
-            RayArg::TwentySix => RayKind::TwentySix,
-            RayArg::Adaptive => RayKind::Adaptive,
-            RayArg::Aw => RayKind::AmanatidesWoo,
-        }
-    }
-}
-
-/// `--view` values.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum ViewArg {
-    /// From the front.
-    Front,
-    /// From behind.
-    Back,
-    /// From the left.
-    Left,
-    /// From the right.
-    Right,
-    /// From above.
-    Top,
-    /// From below.
-    Bottom,
-    /// Three-quarter view (the default).
-    Iso,
-}
-
-impl From<ViewArg> for ViewPreset {
-    fn from(v: ViewArg) -> Self {
-        match v {
-            ViewArg::Front => ViewPreset::Front,
-            ViewArg::Back => ViewPreset::Back,
-            ViewArg::Left => ViewPreset::Left,
-            ViewArg::Right => ViewPreset::Right,
-            ViewArg::Top => ViewPreset::Top,
-            ViewArg::Bottom => ViewPreset::Bottom,
-            ViewArg::Iso => ViewPreset::Iso,
-        }
-    }
-}
-
-/// `--normals` values.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum NormalsArg {
-    /// The hit voxel's entry face.
-    Face,
-    /// Occupancy (or value) gradient.
-    Smooth,
-}
-
 /// `--volume` values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum VolumeArg {
@@ -104,15 +36,6 @@ pub enum VolumeArg {
     Composite,
     /// The iso-surface at --iso, shaded.
     Iso,
-}
-
-/// `--sampling` values.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum SamplingArg {
-    /// The voxel's value.
-    Nearest,
-    /// Trilinear at the middle of the ray's stretch in the voxel.
-    Trilinear,
 }
 
 /// Arguments of `voxkit render`.
@@ -144,7 +67,7 @@ pub struct RenderArgs {
     pub size: (u32, u32),
     /// Ray kind.
     #[arg(long, value_enum, default_value = "adaptive")]
-    pub ray: RayArg,
+    pub ray: RayKind,
     /// Do not skip empty space (the image is identical; only slower).
     #[arg(long)]
     pub no_skip: bool,
@@ -165,7 +88,7 @@ pub struct RenderArgs {
     pub ortho: bool,
     /// View direction preset (ignored with --eye).
     #[arg(long, value_enum, default_value = "iso")]
-    pub view: ViewArg,
+    pub view: ViewPreset,
     /// Write N frames around the vertical axis.
     #[arg(long, value_name = "N")]
     pub turntable: Option<u32>,
@@ -174,7 +97,7 @@ pub struct RenderArgs {
     pub reps: u32,
     /// Normals for shading: smooth (occupancy or value gradient) or the entry face.
     #[arg(long, value_enum, default_value = "smooth")]
-    pub normals: NormalsArg,
+    pub normals: NormalMode,
     /// Background colour, linear RGB in [0, 1].
     #[arg(long, value_name = "R,G,B", value_parser = parse_vec3, default_value = "0.07,0.08,0.1")]
     pub background: DVec3,
@@ -194,7 +117,7 @@ pub struct RenderArgs {
     pub tf: Option<String>,
     /// How visited voxels are sampled.
     #[arg(long, value_enum, default_value = "nearest")]
-    pub sampling: SamplingArg,
+    pub sampling: Sampling,
     /// Meshes: voxels along the longest side.
     #[arg(
         short = 'r',
@@ -375,7 +298,7 @@ fn camera(args: &RenderArgs, lo: DVec3, hi: DVec3, axes: SceneAxes) -> Result<Ca
             args.fov
         )));
     }
-    let (dir, preset_up) = axes.view(args.view.into());
+    let (dir, preset_up) = axes.view(args.view);
     let up = args.up.unwrap_or(preset_up);
     let target = args.target.unwrap_or((lo + hi) * 0.5);
     let cam = match args.eye {
@@ -439,12 +362,9 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let opts = RenderOptions {
         width: w,
         height: h,
-        ray: args.ray.into(),
+        ray: args.ray,
         skip: !args.no_skip,
-        normals: match args.normals {
-            NormalsArg::Face => NormalMode::Face,
-            NormalsArg::Smooth => NormalMode::Smooth,
-        },
+        normals: args.normals,
         background: args.background.as_vec3().to_array(),
         limit,
         ..RenderOptions::default()
@@ -561,7 +481,7 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let mut j = serde_json::json!({
         "input": args.input.display().to_string(),
         "output": args.output.display().to_string(),
-        "ray": RayKind::from(args.ray).name(),
+        "ray": args.ray.name(),
         "skip": !args.no_skip,
         "size": [w, h],
         "frames": frames,
@@ -608,7 +528,7 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
             args.output.display(),
             w,
             h,
-            RayKind::from(args.ray).name(),
+            args.ray.name(),
             if args.no_skip { "no" } else { "with" },
             stats.hits,
             stats.voxels_visited,
@@ -675,10 +595,7 @@ fn volume_options(args: &RenderArgs, vol: &ScalarVolume) -> Result<VolumeOptions
     if args.iso.is_some() && !matches!(v.mode, VolumeMode::Iso(_)) {
         return Err(CliError::bad_input("--iso needs --volume iso"));
     }
-    v.sampling = match args.sampling {
-        SamplingArg::Nearest => Sampling::Nearest,
-        SamplingArg::Trilinear => Sampling::Trilinear,
-    };
+    v.sampling = args.sampling;
     Ok(v)
 }
 

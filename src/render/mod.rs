@@ -48,15 +48,18 @@ use crate::grid::{GridFrame, MemoryLimit};
 use crate::line::Segment;
 
 /// How a pixel's discrete ray steps (`--ray`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum RayKind {
     /// Tripod 6-connected line: visits every voxel the ray passes through.
+    #[value(name = "6")]
     Six,
     /// 26-connected line: the fewest voxels; may slip through diagonal gaps.
+    #[value(name = "26")]
     TwentySix,
     /// 26-connected through unflagged voxels, 6-connected in flagged ones.
     Adaptive,
     /// Amanatides–Woo in `f64` (the traversal other voxel renderers use).
+    #[value(name = "aw")]
     AmanatidesWoo,
 }
 
@@ -81,7 +84,7 @@ impl RayKind {
 }
 
 /// Which normal shades a hit (`--normals`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum NormalMode {
     /// The face of the hit voxel the ray enters through.
     Face,

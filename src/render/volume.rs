@@ -315,7 +315,7 @@ pub enum VolumeMode {
 }
 
 /// How a visited voxel is sampled.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum Sampling {
     /// The voxel's value.
     Nearest,
