@@ -435,15 +435,6 @@ pub(crate) fn check_image(width: u32, height: u32, limit: MemoryLimit) -> Result
     )
 }
 
-/// One image row: colours, depths, hits, counters, hit count.
-type RowResult = (
-    Vec<[f32; 4]>,
-    Vec<f32>,
-    Vec<Option<IVec3>>,
-    cast::CastCounters,
-    u64,
-);
-
 /// Renders `occ` (placed in the world by `xf`) with `camera`.
 ///
 /// ```
@@ -474,53 +465,57 @@ pub fn render_grid(
     check_image(w, h, opts.limit)?;
     let start = Instant::now();
     let setup = RaySetup::new(camera, xf, occ.bounds(), w, h);
-    let rows: Vec<RowResult> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let mut color = Vec::with_capacity(w as usize);
-            let mut depth = Vec::with_capacity(w as usize);
-            let mut hit = Vec::with_capacity(w as usize);
-            let mut n = cast::CastCounters::default();
-            let mut hits = 0;
-            for x in 0..w {
-                let (ray, seg) = setup.pixel(x, y);
-                let v = seg.and_then(|s| cast::first_hit(occ, &s, opts.ray, opts.skip, &mut n));
-                match v {
-                    Some(v) => {
-                        hits += 1;
-                        let (t, axis) = ray.entry(v);
-                        color.push(shade(occ, &setup, &ray, v, axis, opts));
-                        depth.push(t as f32);
-                    }
-                    None => {
-                        color.push([0.0; 4]);
-                        depth.push(f32::INFINITY);
-                    }
-                }
-                hit.push(v);
-            }
-            (color, depth, hit, n, hits)
-        })
-        .collect();
+    // Rows write straight into the frame's buffers (no per-row vectors to
+    // gather afterwards); only the counters are reduced.
+    let n = (w as usize) * (h as usize);
     let mut img = RenderImage {
         width: w,
         height: h,
-        color: Vec::with_capacity((w * h) as usize),
-        depth: Vec::with_capacity((w * h) as usize),
-        hit: Vec::with_capacity((w * h) as usize),
+        color: vec![[0.0; 4]; n],
+        depth: vec![f32::INFINITY; n],
+        hit: vec![None; n],
     };
+    let (counters, hits) = img
+        .color
+        .par_chunks_mut(w as usize)
+        .zip(img.depth.par_chunks_mut(w as usize))
+        .zip(img.hit.par_chunks_mut(w as usize))
+        .enumerate()
+        .map(|(y, ((color, depth), hit))| {
+            let mut c = cast::CastCounters::default();
+            let mut hits = 0u64;
+            for x in 0..w as usize {
+                let (ray, seg) = setup.pixel(x as u32, y as u32);
+                let v = seg.and_then(|s| cast::first_hit(occ, &s, opts.ray, opts.skip, &mut c));
+                if let Some(v) = v {
+                    hits += 1;
+                    let (t, axis) = ray.entry(v);
+                    color[x] = shade(occ, &setup, &ray, v, axis, opts);
+                    depth[x] = t as f32;
+                    hit[x] = Some(v);
+                }
+            }
+            (c, hits)
+        })
+        .reduce(
+            || (cast::CastCounters::default(), 0),
+            |(a, ha), (b, hb)| {
+                (
+                    cast::CastCounters {
+                        visited: a.visited + b.visited,
+                        jumps: a.jumps + b.jumps,
+                    },
+                    ha + hb,
+                )
+            },
+        );
     let mut stats = RenderStats {
-        rays: w as u64 * h as u64,
+        rays: n as u64,
+        hits,
+        voxels_visited: counters.visited,
+        bricks_skipped: counters.jumps,
         ..RenderStats::default()
     };
-    for (c, d, v, n, hits) in rows {
-        img.color.extend(c);
-        img.depth.extend(d);
-        img.hit.extend(v);
-        stats.voxels_visited += n.visited;
-        stats.bricks_skipped += n.jumps;
-        stats.hits += hits;
-    }
     stats.render_ms = start.elapsed().as_secs_f64() * 1e3;
     Ok((img, stats))
 }
