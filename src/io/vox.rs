@@ -575,6 +575,47 @@ fn read_scene(
 mod tests {
     use super::*;
 
+    /// A chain of translations whose sum leaves ±2^30 is a typed error, not
+    /// an `i32` overflow (regression: nested `_t`s each within range used to
+    /// overflow the accumulated offset).
+    #[test]
+    fn nested_translations_beyond_range_are_an_error() {
+        let mut main = Vec::new();
+        let mut c = Vec::new();
+        [1, 1, 1].iter().for_each(|&v| put_i32(&mut c, v));
+        chunk(&mut main, b"SIZE", &c, &[]);
+        let mut c = Vec::new();
+        put_i32(&mut c, 1);
+        c.extend_from_slice(&[0, 0, 0, 1]);
+        chunk(&mut main, b"XYZI", &c, &[]);
+        // Three transforms of 2^30 - 1 each, then the shape.
+        for node in 0..3 {
+            let mut c = Vec::new();
+            put_i32(&mut c, node);
+            put_dict(&mut c, &[]);
+            put_i32(&mut c, node + 1);
+            put_i32(&mut c, -1);
+            put_i32(&mut c, 0);
+            put_i32(&mut c, 1);
+            put_dict(&mut c, &[("_t", format!("{} 0 0", (1 << 30) - 1))]);
+            chunk(&mut main, b"nTRN", &c, &[]);
+        }
+        let mut c = Vec::new();
+        put_i32(&mut c, 3);
+        put_dict(&mut c, &[]);
+        put_i32(&mut c, 1);
+        put_i32(&mut c, 0);
+        put_dict(&mut c, &[]);
+        chunk(&mut main, b"nSHP", &c, &[]);
+        let mut file = b"VOX ".to_vec();
+        put_i32(&mut file, 150);
+        chunk(&mut file, b"MAIN", &[], &main);
+        assert!(matches!(
+            read(&file, MemoryLimit::DEFAULT),
+            Err(VoxkitError::Invalid(_))
+        ));
+    }
+
     #[test]
     fn default_palette_is_magicavoxels() {
         let p = default_palette();
