@@ -1,0 +1,459 @@
+#!/usr/bin/env python3
+"""Solid voxelization of meshes with holes: voxkit `--mode solid` against
+libigl's generalized winding number and trimesh's `voxelized(h).fill()`
+(issue 14), plus a winding-number check of voxkit's solid on any OBJ.
+
+usage (from the repository root, with the peers' virtualenv, see
+../shared/peers/README.md; `cargo build --release` first):
+
+    # the holes table: closed meshes with 1/5/20/40 % of their triangles deleted
+    ../shared/peers/.venv/bin/python scripts/compare_solid.py \
+        [--meshes spot fandisk bunny | PATH.obj ...] [--fractions 1 5 20 40] \
+        [--res 128] [--seed 0] [--reps 1] [--no-trimesh] [--keep DIR] [--voxkit BIN]
+
+    # the correctness check: voxkit solid against the winding number, one mesh
+    ../shared/peers/.venv/bin/python scripts/compare_solid.py \
+        --check-winding MESH.obj -r 128 [--exact] [--margin 0.05] [--allow 0] [--voxkit BIN]
+
+HOLES MODE. For each closed mesh (Spot and fandisk are watertight; the
+Stanford bunny gets its 5 base holes closed here, each boundary loop fanned
+from its centroid), a seeded random permutation of the triangles is drawn and
+its first 1/5/20/40 % deleted (so the deletions are nested). Every tool gets
+the same holed (V, F), written as OBJ with positive indices and the full
+vertex list. Scored per tool:
+
+  * voxkit: `voxelize --mode solid --json`, the .binvox read back;
+  * libigl: `igl.fast_winding_number(V, F, Q)` at every voxel centre Q of
+    voxkit's lattice, inside where w >= 1/2;
+  * trimesh: `Trimesh(V, F).voxelized(h).fill()` on trimesh's own lattice.
+
+The reference is the CLOSED mesh's solid: libigl's fast winding number of the
+closed mesh at the same centres (checked against voxkit's solid of the closed
+mesh; the count of disagreements is printed as tool "check"). Voxels whose
+closed cube meets the closed surface (the exact conservative set, from
+../shared/peers/conservative_ref.py, grown by 1/256 voxel to absorb voxkit's
+vertex quantization) are not scored. Score = voxels of the grid box, not in
+that set, whose candidate solid differs from the reference, as % of them.
+Also printed for voxkit: its disagreements with libigl on the HOLED mesh at
+centres off the holed surface (issue 14's criterion), and how many of them
+have the fast winding number within --margin of 1/2.
+
+LATTICES. voxkit's lattice is origin = bbox min of the vertices the triangles
+use, h = longest side / res, dims = ceil(extent / h); voxel (i, j, k) has its
+centre at origin + (i + 1/2) h. The binvox file pads to a cube (dim D = max
+dims, scale = D h, data order x, z, y with y fastest), so it is cropped to the
+dims of `--json`. Deleting triangles could shrink that bbox, so one triangle at
+each of the 6 extreme vertices is never deleted (at most 6 triangles), and the
+holed run's dims/translate/scale are checked to equal the closed run's.
+trimesh puts voxel centres at integer multiples n h of world space; it is
+scored on the box of those voxels that meet the closed mesh's bbox, with the
+reference and the conservative set rebuilt on that lattice.
+
+Times: voxkit's `voxelize_ms` (all cores), libigl the fast_winding_number call
+(it runs on one thread in the 2.6.3 wheel), trimesh voxelized + fill (one
+thread); median of --reps.
+
+CHECK MODE. `--check-winding MESH.obj -r N` runs voxkit solid on the mesh and
+counts the voxel centres, off the mesh's (grown) conservative set, where
+voxkit's solid and the winding number (w >= 1/2) disagree. w is the fast
+winding number, recomputed exactly (`igl.winding_number`) wherever it lies
+within --margin of 1/2 (--exact: exactly everywhere, slow: about 0.1 ms per
+query for 70k triangles). Prints one JSON line; exits 1 when there are more
+than --allow disagreements. OBJ only (triangles and polygons; `l`/`p` ignored).
+"""
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+PEERS = ROOT.parent / "shared" / "peers"
+MESHES = {
+    "spot": ROOT / "data/meshes/obj/spot.obj",
+    "fandisk": ROOT / "data/meshes/obj/fandisk.obj",
+    "bunny": ROOT / "data/meshes/obj/stanford-bunny.obj",
+}
+# voxkit rounds vertices to 1/256 voxel (at most 1/512 per axis), so its
+# surface voxels may touch the exact triangles' conservative set within that.
+QUANT_GROW = 1.0 / 256
+
+
+# ---------------------------------------------------------------- meshes
+
+
+def load_obj(path):
+    """(V float64 (n,3), F int64 (m,3)): `v` and `f` records, polygons fanned
+    from their first corner, negative indices resolved against the vertices
+    read so far (as voxkit's loader does; trimesh 5.2 does not)."""
+    V, F = [], []
+    with open(path) as f:
+        for line in f:
+            p = line.split()
+            if not p:
+                continue
+            if p[0] == "v":
+                V.append([float(x) for x in p[1:4]])
+            elif p[0] == "f":
+                idx = [int(t.split("/")[0]) for t in p[1:]]
+                idx = [i - 1 if i > 0 else len(V) + i for i in idx]
+                F.extend([idx[0], idx[k], idx[k + 1]] for k in range(1, len(idx) - 1))
+    return np.array(V, dtype=np.float64), np.array(F, dtype=np.int64).reshape(-1, 3)
+
+
+def write_obj(path, V, F):
+    """Every vertex (used or not, so indices stay), 1-based positive faces."""
+    with open(path, "w") as f:
+        f.write("".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in V.tolist()))
+        f.write("".join(f"f {a} {b} {c}\n" for a, b, c in (F + 1).tolist()))
+
+
+def boundary_halfedges(F):
+    """Directed edges (a, b) of faces whose twin (b, a) is in no face."""
+    he = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    twins = {(int(b), int(a)) for a, b in he}
+    return [(int(a), int(b)) for a, b in he if (int(a), int(b)) not in twins]
+
+
+def boundary_loops(F):
+    """Boundary vertex loops, each in the direction of its faces' edges
+    (each boundary vertex must start exactly one boundary edge)."""
+    he = boundary_halfedges(F)
+    nxt = dict(he)
+    if len(nxt) != len(he):
+        raise SystemExit("a vertex starts two boundary edges: cannot close the holes by fans")
+    loops = []
+    while nxt:
+        start = next(iter(nxt))
+        loop, v = [start], nxt.pop(start)
+        while v != start:
+            loop.append(v)
+            v = nxt.pop(v)
+        loops.append(loop)
+    return loops
+
+
+def close_holes(V, F):
+    """Fans each boundary loop from its centroid (a new vertex), oriented
+    like the faces around it (loop edge a->b gets the triangle b, a, c)."""
+    V, F = list(V), [F]
+    for loop in boundary_loops(F[0]):
+        c = len(V)
+        V.append(np.mean([V[i] for i in loop], axis=0))
+        F.append(np.array([[b, a, c] for a, b in zip(loop, loop[1:] + loop[:1])], dtype=np.int64))
+    return np.array(V), np.concatenate(F)
+
+
+def closed_mesh(name):
+    """(V, F) of a named mesh, holes closed, checked watertight."""
+    V, F = load_obj(MESHES.get(name, name))
+    nb = len(boundary_halfedges(F))
+    if nb:
+        V, F = close_holes(V, F)
+    left = len(boundary_halfedges(F))
+    if left:
+        raise SystemExit(f"{name}: {left} boundary edges left after closing holes")
+    return V, F, nb
+
+
+def protected_triangles(V, F):
+    """One triangle at each vertex holding a min or max of the bbox of the
+    used vertices: keeping them keeps voxkit's fitted lattice."""
+    used = np.unique(F)
+    keep = set()
+    for a in range(3):
+        for v in (used[np.argmin(V[used, a])], used[np.argmax(V[used, a])]):
+            keep.add(int(np.nonzero((F == v).any(axis=1))[0][0]))
+    return np.array(sorted(keep))
+
+
+def delete_random(F, percent, seed, protect):
+    """F without round(percent % of len(F)) triangles, drawn by one seeded
+    permutation of the unprotected ones (nested across percentages)."""
+    pool = np.setdiff1d(np.arange(len(F)), protect)
+    order = np.random.default_rng(seed).permutation(pool)
+    k = int(round(len(F) * percent / 100.0))
+    gone = np.zeros(len(F), bool)
+    gone[order[:k]] = True
+    return F[~gone], k
+
+
+# ---------------------------------------------------------------- lattices
+
+
+class Lattice:
+    """Voxel (i, j, k), 0 <= idx < dims, covers [origin + idx h, origin + (idx+1) h]."""
+
+    def __init__(self, origin, h, dims):
+        self.origin = np.asarray(origin, dtype=np.float64)
+        self.h = float(h)
+        self.dims = tuple(int(d) for d in dims)
+
+    def centres(self):
+        """(N, 3) voxel centres, C order over (i, j, k)."""
+        ax = [self.origin[a] + (np.arange(self.dims[a]) + 0.5) * self.h for a in range(3)]
+        g = np.meshgrid(*ax, indexing="ij")
+        return np.stack([x.ravel() for x in g], axis=1)
+
+    def mask(self, idx):
+        """Bool array of `dims` with the voxels `idx` (N, 3) that lie in the box."""
+        m = np.zeros(self.dims, bool)
+        idx = np.asarray(idx, dtype=np.int64).reshape(-1, 3)
+        ok = np.all((idx >= 0) & (idx < np.array(self.dims)), axis=1)
+        m[tuple(idx[ok].T)] = True
+        return m
+
+
+def trimesh_lattice(V, F, h):
+    """trimesh's lattice (centres at n h) over the voxels meeting the bbox of
+    the used vertices: n from ceil(lo/h - 1/2) to floor(hi/h + 1/2)."""
+    used = V[np.unique(F)]
+    n0 = np.ceil(used.min(axis=0) / h - 0.5).astype(np.int64)
+    n1 = np.floor(used.max(axis=0) / h + 0.5).astype(np.int64)
+    return Lattice((n0 - 0.5) * h, h, n1 - n0 + 1), n0
+
+
+def conservative(V, F, lat, grow=QUANT_GROW):
+    """Voxels whose closed cube (grown by `grow` voxels) meets a triangle."""
+    sys.path.insert(0, str(PEERS))
+    from conservative_ref import conservative_voxels
+
+    return lat.mask(conservative_voxels((V - lat.origin) / lat.h, F, grow=grow))
+
+
+# ---------------------------------------------------------------- tools
+
+
+def run_json(cmd):
+    r = subprocess.run([str(c) for c in cmd], capture_output=True, text=True)
+    if r.returncode != 0:
+        raise SystemExit(f"{' '.join(map(str, cmd))} failed ({r.returncode}):\n{r.stderr}")
+    return json.loads([l for l in r.stdout.splitlines() if l.startswith("{")][-1])
+
+
+def read_binvox(path):
+    """(occupancy bool [x, y, z] of the D^3 cube, translate (3,), scale)."""
+    with open(path, "rb") as f:
+        assert f.readline().startswith(b"#binvox")
+        head = {}
+        while True:
+            p = f.readline().split()
+            if p[0] == b"data":
+                break
+            head[p[0].decode()] = [float(x) for x in p[1:]]
+        runs = np.frombuffer(f.read(), dtype=np.uint8).reshape(-1, 2)
+    d = [int(x) for x in head["dim"]]
+    flat = np.repeat(runs[:, 0].astype(bool), runs[:, 1])
+    # data order: x slowest, then z, y fastest; header dims in that order
+    grid = flat.reshape(d[0], d[2], d[1]).transpose(0, 2, 1)
+    return grid, np.array(head["translate"]), head["scale"][0]
+
+
+def voxkit(binary, mesh, res, mode, out):
+    """(occupancy on voxkit's lattice, Lattice, the --json record)."""
+    j = run_json([binary, "voxelize", mesh, "-r", res, "-o", out, "--mode", mode, "--json", "-q", "--force"])
+    grid, translate, scale = read_binvox(out)
+    dims = j["dims"]
+    lat = Lattice(translate, scale / max(grid.shape), dims)
+    return grid[: dims[0], : dims[1], : dims[2]], lat, j
+
+
+def winding(V, F, Q):
+    """libigl's fast winding number (float64 in, float64 out; the 2.6.3 soup
+    overload takes no accuracy parameter) and its wall time in ms."""
+    import igl
+
+    t = time.perf_counter()
+    w = igl.fast_winding_number(V, F, Q)
+    return w, (time.perf_counter() - t) * 1e3
+
+
+def refine_near_half(V, F, Q, w, margin):
+    """w with the entries within `margin` of 1/2 recomputed exactly."""
+    import igl
+
+    near = np.abs(w - 0.5) < margin
+    w = w.copy()
+    if near.any():
+        w[near] = igl.winding_number(V, F, np.ascontiguousarray(Q[near]))
+    return w, int(near.sum())
+
+
+def trimesh_fill(V, F, h, lat, n0):
+    """trimesh `voxelized(h).fill()` as a mask on `lat` (whose voxel 0 is
+    trimesh's index n0), its time in ms, and voxels outside `lat`."""
+    import trimesh
+
+    m = trimesh.Trimesh(V, F, process=False)
+    t = time.perf_counter()
+    vg = m.voxelized(h).fill()
+    ms = (time.perf_counter() - t) * 1e3
+    offset = np.round(np.asarray(vg.transform)[:3, 3] / h).astype(np.int64)
+    idx = np.asarray(vg.sparse_indices, dtype=np.int64) + offset - n0
+    inside = np.all((idx >= 0) & (idx < np.array(lat.dims)), axis=1)
+    return lat.mask(idx), ms, int((~inside).sum())
+
+
+# ---------------------------------------------------------------- holes mode
+
+
+def score(cand, ref, scored):
+    """Misclassified scored voxels, as % of the scored voxels of the box
+    (`wrong_pct`) and as % of the scored voxels inside the reference
+    (`wrong_pct_inside`, the denominator of issue 14's table)."""
+    wrong = int((cand != ref)[scored].sum())
+    n, n_in = int(scored.sum()), int((scored & ref).sum())
+    return dict(wrong=wrong, scored=n, scored_inside=n_in, wrong_pct=100.0 * wrong / n,
+                wrong_pct_inside=100.0 * wrong / n_in)
+
+
+def emit(rows, **r):
+    rows.append(r)
+    print(json.dumps(r), flush=True)
+
+
+def holes_mesh(name, a, tmp, rows):
+    V, Fc, nb = closed_mesh(name)
+    label = Path(name).stem if name not in MESHES else name
+    closed_path = Path(tmp) / f"{label}_closed.obj"
+    write_obj(closed_path, V, Fc)
+    out = Path(tmp) / "v.binvox"
+    vk_closed, lat, jc = voxkit(a.voxkit, closed_path, a.res, "solid", out)
+    Q = lat.centres()
+    off = ~conservative(V, Fc, lat)
+    ref = (winding(V, Fc, Q)[0] >= 0.5).reshape(lat.dims)
+    emit(rows, mesh=label, percent=0, tool="check", res=a.res, triangles=len(Fc), boundary_edges_closed=nb,
+         dims=jc["dims"], voxkit_vs_reference=int((vk_closed != ref)[off].sum()), scored=int(off.sum()))
+
+    if not a.no_trimesh:
+        tlat, n0 = trimesh_lattice(V, Fc, lat.h)
+        tref = (winding(V, Fc, tlat.centres())[0] >= 0.5).reshape(tlat.dims)
+        toff = ~conservative(V, Fc, tlat)
+    protect = protected_triangles(V, Fc)
+    for pct in a.fractions:
+        Fh, k = delete_random(Fc, pct, a.seed, protect)
+        holed = Path(tmp) / f"{label}_holed{pct:g}.obj"
+        write_obj(holed, V, Fh)
+        base = dict(mesh=label, percent=pct, removed=k, res=a.res)
+
+        runs = [voxkit(a.voxkit, holed, a.res, "solid", out) for _ in range(a.reps)]
+        vk, hlat, jh = runs[-1]
+        same = hlat.dims == lat.dims and np.array_equal(hlat.origin, lat.origin) and hlat.h == lat.h
+        if not same:
+            raise SystemExit(f"{holed}: voxkit lattice {hlat.__dict__} differs from the closed mesh's {lat.__dict__}")
+        w_runs = [winding(V, Fh, Q) for _ in range(a.reps)]
+        w = w_runs[-1][0]
+        igl_in = (w >= 0.5).reshape(lat.dims)
+        off_holed = ~conservative(V, Fh, lat)
+        dis = (vk != igl_in) & off_holed
+        near = (np.abs(w - 0.5) < a.margin).reshape(lat.dims)
+        emit(rows, **base, tool="voxkit", ms=statistics.median(r[2]["voxelize_ms"] for r in runs),
+             **score(vk, ref, off), disagree_libigl=int(dis.sum()), disagree_near_half=int((dis & near).sum()),
+             off_holed_surface=int(off_holed.sum()))
+        emit(rows, **base, tool="libigl", ms=statistics.median(r[1] for r in w_runs), **score(igl_in, ref, off))
+        if not a.no_trimesh:
+            t_runs = [trimesh_fill(V, Fh, lat.h, tlat, n0) for _ in range(a.reps)]
+            tm, _, outside = t_runs[-1]
+            emit(rows, **base, tool="trimesh fill", ms=statistics.median(r[1] for r in t_runs),
+                 **score(tm, tref, toff), outside_box=outside)
+
+
+def fmt_ms(ms):
+    return f"{ms / 1e3:.2f} s" if ms >= 1000 else f"{ms:.0f} ms" if ms >= 10 else f"{ms:.1f} ms"
+
+
+def holes_table(rows):
+    tools = ["voxkit", "libigl", "trimesh fill"]
+    meshes = list(dict.fromkeys(r["mesh"] for r in rows))
+    cell = {(r["mesh"], r["percent"], r["tool"]): r for r in rows}
+    cols = [(m, t) for m in meshes for t in tools if any(k[0] == m and k[2] == t for k in cell)]
+    percents = list(dict.fromkeys(r["percent"] for r in rows if r["tool"] != "check"))
+
+    def table(title, text):
+        print(f"\n{title}\n")
+        print("| triangles removed | " + " | ".join(f"{t}, {m}" for m, t in cols) + " |")
+        print("|---|" + "---|" * len(cols))
+        for p in percents:
+            cs = [cell.get((m, p, t)) for m, t in cols]
+            print(f"| {p:g}% | " + " | ".join("–" if r is None else text(r) for r in cs) + " |")
+
+    table("Wrong voxels, % of the closed solid's interior voxels off the closed surface (issue 14's table), "
+          "and the tool's time:", lambda r: f"{r['wrong_pct_inside']:.2f}% ({fmt_ms(r['ms'])})")
+    table("Wrong voxels, % of all grid-box voxels off the closed surface:", lambda r: f"{r['wrong_pct']:.2f}%")
+    print("\nvoxkit solid vs libigl fast winding number on the holed mesh, voxel centres off its surface "
+          "(of them within --margin of 1/2):\n")
+    print("| triangles removed | " + " | ".join(meshes) + " |")
+    print("|---|" + "---|" * len(meshes))
+    for p in percents:
+        cs = [cell.get((m, p, "voxkit")) for m in meshes]
+        print(f"| {p:g}% | " + " | ".join(
+            "–" if r is None else f"{r['disagree_libigl']:,} ({r['disagree_near_half']:,})" for r in cs) + " |")
+
+
+# ---------------------------------------------------------------- check mode
+
+
+def check_winding(a):
+    V, F = load_obj(a.check_winding)
+    with tempfile.TemporaryDirectory() as tmp:
+        solid, lat, j = voxkit(a.voxkit, a.check_winding, a.res, "solid", Path(tmp) / "v.binvox")
+    t = time.perf_counter()
+    off = ~conservative(V, F, lat)
+    Q = lat.centres()[off.ravel()]
+    if a.exact:
+        import igl
+
+        w, refined = igl.winding_number(V, F, Q), len(Q)
+    else:
+        w_fast, _ = winding(V, F, Q)
+        w, refined = refine_near_half(V, F, Q, w_fast, a.margin)
+    inside = w >= 0.5
+    vk = solid[off]
+    dis = vk != inside
+    r = dict(mesh=str(a.check_winding), res=a.res, dims=j["dims"], triangles=len(F),
+             voxkit_voxelize_ms=j["voxelize_ms"], scored=int(off.sum()), disagreements=int(dis.sum()),
+             voxkit_only=int((vk & ~inside).sum()), winding_only=int((~vk & inside).sum()),
+             min_abs_w_minus_half_at_disagreements=float(np.abs(w[dis] - 0.5).min()) if dis.any() else None,
+             near_half=int((np.abs(w - 0.5) < a.margin).sum()), exact_queries=refined,
+             reference="exact" if a.exact else f"fast, exact within {a.margin} of 1/2",
+             check_s=time.perf_counter() - t)
+    print(json.dumps(r))
+    return 1 if r["disagreements"] > a.allow else 0
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--meshes", nargs="+", default=list(MESHES), help="names (spot fandisk bunny) or OBJ paths")
+    ap.add_argument("--fractions", nargs="+", type=float, default=[1, 5, 20, 40], help="percent of triangles deleted")
+    ap.add_argument("-r", "--res", type=int, default=128)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--reps", type=int, default=1, help="timed runs per tool (median)")
+    ap.add_argument("--no-trimesh", action="store_true")
+    ap.add_argument("--keep", help="write the closed and holed OBJ files here instead of a temporary folder")
+    ap.add_argument("--voxkit", default=str(ROOT / "target" / "release" / "voxkit"))
+    ap.add_argument("--margin", type=float, default=0.05, help="|w - 1/2| below which w is near 1/2")
+    ap.add_argument("--check-winding", metavar="MESH.obj", help="check mode (see above)")
+    ap.add_argument("--exact", action="store_true", help="check mode: exact winding number everywhere")
+    ap.add_argument("--allow", type=int, default=0, help="check mode: disagreements tolerated before exit 1")
+    a = ap.parse_args()
+    if not Path(a.voxkit).exists():
+        raise SystemExit(f"{a.voxkit} missing: run `cargo build --release` first")
+    if a.check_winding:
+        raise SystemExit(check_winding(a))
+    rows = []
+    if a.keep:
+        Path(a.keep).mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in a.meshes:
+            holes_mesh(name, a, a.keep or tmp, rows)
+    holes_table(rows)
+
+
+if __name__ == "__main__":
+    main()
