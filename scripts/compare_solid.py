@@ -328,8 +328,11 @@ def holes_mesh(name, a, tmp, rows):
     Q = lat.centres()
     off = ~conservative(V, Fc, lat)
     ref = (winding(V, Fc, Q)[0] >= 0.5).reshape(lat.dims)
-    emit(rows, mesh=label, percent=0, tool="check", res=a.res, triangles=len(Fc), boundary_edges_closed=nb,
-         dims=jc["dims"], voxkit_vs_reference=int((vk_closed != ref)[off].sum()), scored=int(off.sum()))
+    vk_cons = voxkit(a.voxkit, closed_path, a.res, "conservative", out)[0]
+    emit(rows, mesh=label, percent=None, tool="check", res=a.res, triangles=len(Fc), boundary_edges_closed=nb,
+         dims=jc["dims"], voxkit_vs_reference=int((vk_closed != ref)[off].sum()), scored=int(off.sum()),
+         voxkit_conservative_outside_set=int((vk_cons & off).sum()),
+         set_outside_voxkit_conservative=int((~vk_cons & ~off).sum()))
 
     if not a.no_trimesh:
         tlat, n0 = trimesh_lattice(V, Fc, lat.h)
@@ -430,7 +433,7 @@ def check_winding(a):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--meshes", nargs="+", default=list(MESHES), help="names (spot fandisk bunny) or OBJ paths")
-    ap.add_argument("--fractions", nargs="+", type=float, default=[1, 5, 20, 40], help="percent of triangles deleted")
+    ap.add_argument("--fractions", nargs="+", type=float, default=[0, 1, 5, 20, 40], help="percent of triangles deleted (0: the closed mesh)")
     ap.add_argument("-r", "--res", type=int, default=128)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--reps", type=int, default=1, help="timed runs per tool (median)")
