@@ -18,6 +18,9 @@ brick assembly; run with all cores and again with RAYON_NUM_THREADS=1),
 Open3D's `create_from_triangle_mesh` call and trimesh's `voxelized` call
 (both single-threaded). Each time is the median of --reps process runs.
 Prints one JSON line per (mesh, res, tool) and a markdown table at the end.
+
+Solid mode against libigl's winding number and trimesh's fill, on meshes with
+holes: scripts/compare_solid.py.
 """
 
 import argparse
