@@ -6,9 +6,9 @@ libigl's generalized winding number and trimesh's `voxelized(h).fill()`
 usage (from the repository root, with the peers' virtualenv, see
 ../shared/peers/README.md; `cargo build --release` first):
 
-    # the holes table: closed meshes with 1/5/20/40 % of their triangles deleted
+    # the holes table: closed meshes with 0/1/5/20/40 % of their triangles deleted
     ../shared/peers/.venv/bin/python scripts/compare_solid.py \
-        [--meshes spot fandisk bunny | PATH.obj ...] [--fractions 1 5 20 40] \
+        [--meshes spot fandisk bunny | PATH.obj ...] [--fractions 0 1 5 20 40] \
         [--res 128] [--seed 0] [--reps 1] [--no-trimesh] [--keep DIR] [--voxkit BIN]
 
     # the correctness check: voxkit solid against the winding number, one mesh
@@ -18,7 +18,7 @@ usage (from the repository root, with the peers' virtualenv, see
 HOLES MODE. For each closed mesh (Spot and fandisk are watertight; the
 Stanford bunny gets its 5 base holes closed here, each boundary loop fanned
 from its centroid), a seeded random permutation of the triangles is drawn and
-its first 1/5/20/40 % deleted (so the deletions are nested). Every tool gets
+its first 0/1/5/20/40 % deleted (nested; 0 % is the closed mesh itself). Every tool gets
 the same holed (V, F), written as OBJ with positive indices and the full
 vertex list. Scored per tool:
 
@@ -33,7 +33,9 @@ mesh; the count of disagreements is printed as tool "check"). Voxels whose
 closed cube meets the closed surface (the exact conservative set, from
 ../shared/peers/conservative_ref.py, grown by 1/256 voxel to absorb voxkit's
 vertex quantization) are not scored. Score = voxels of the grid box, not in
-that set, whose candidate solid differs from the reference, as % of them.
+that set, whose candidate solid differs from the reference: `wrong_pct` as %
+of those voxels, `wrong_pct_inside` as % of those inside the reference (the
+denominator that reproduces issue 14's table). Two tables are printed.
 Also printed for voxkit: its disagreements with libigl on the HOLED mesh at
 centres off the holed surface (issue 14's criterion), and how many of them
 have the fast winding number within --margin of 1/2.
@@ -60,9 +62,10 @@ voxkit's solid and the winding number (w >= 1/2) disagree. w is the fast
 winding number, recomputed exactly (`igl.winding_number`) wherever it lies
 within --margin of 1/2 (--exact: exactly everywhere, O(#triangles) per query:
 about 0.1-0.3 ms of CPU per query for 70k triangles). The fast call's error at
-voxel centres off the surface was at most 0.003 in every case tried, so the
-default margin 0.05 leaves the fast answer only where it cannot be wrong. Prints one JSON line; exits 1 when there are more
-than --allow disagreements. OBJ only (triangles and polygons; `l`/`p` ignored).
+voxel centres off the surface was at most 0.003 in every case tried, so with
+the default margin 0.05 a fast answer is kept only 16x that error away from
+1/2. Prints one JSON line; exits 1 when there are more than --allow
+disagreements. OBJ only (triangles and polygons; `l`/`p` ignored).
 """
 
 import argparse
