@@ -598,7 +598,7 @@ impl BrickGrid {
     /// ```
     /// use voxkit::grid::{BrickGrid, Voxel};
     /// // The half-space x < 12 of a 20×16×8 box.
-    /// let g = BrickGrid::from_x_rows([20, 16, 8], |v| if v.x == 0 { 0xff } else { 0x0f });
+    /// let g = BrickGrid::from_x_rows([20, 16, 8], |v| [0xff, 0x0f, 0][v.x as usize / 8]);
     /// assert_eq!((g.count(), g.tile_count()), (12 * 16 * 8, 2));
     /// assert!(g.contains(Voxel::new(11, 15, 7)) && !g.contains(Voxel::new(12, 0, 0)));
     /// ```
