@@ -3,7 +3,7 @@
 //! Reads a voxel file (any supported format) and decides whether its surface
 //! has an N-tunnel. Always prints one line of JSON (`--json` is accepted for
 //! symmetry with the other commands):
-//! `{"grid", "dims", "voxels", "tunnels": N, "close": K, "enclosed": e,
+//! `{"grid", "dims", "voxels", "tiles", "tunnels": N, "close": K, "enclosed": e,
 //! "tunnel": bool, "first_inside_reached": [x,y,z] | null, "outside_empty",
 //! "inside_empty"}`. Exit code 1 if a tunnel exists, 0 if not, 2 for bad
 //! input.
@@ -143,6 +143,7 @@ pub fn run(args: CheckArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "grid": args.grid.display().to_string(),
         "dims": frame.dims,
         "voxels": grid.count(),
+        "tiles": grid.tile_count(),
         "tunnels": args.tunnels.parse::<u32>().unwrap_or(0),
         "close": args.close,
         "enclosed": inside.len(),

@@ -2,7 +2,9 @@
 //! voxel file, a mesh (voxelized first) or a scalar volume.
 //!
 //! `--json` prints one line with `input`, `kind` (`grid` / `volume`),
-//! `dims`, `voxels`, `ray`, `skip`, `size`, `rays`, `hits`,
+//! `dims`, `voxels`, for grids `tiles` (the grid's tiles), `stored_bricks`
+//! (bricks with flags of their own) and `full_bricks` (bricks sharing the
+//! full slot), `ray`, `skip`, `size`, `rays`, `hits`,
 //! `voxels_visited`, `bricks_skipped`, `load_ms` (reading, and voxelizing a
 //! mesh), `prepare_ms` (render structures), `render_ms` (per frame; the
 //! median over `--turntable` frames and `--reps` repetitions), `frames`, `memory_bytes` (render structures
@@ -380,7 +382,9 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
             info.insert("kind".into(), "grid".into());
             info.insert("dims".into(), serde_json::json!(scene.dims));
             info.insert("voxels".into(), occ.voxel_count().into());
+            info.insert("tiles".into(), scene.grid.tile_count().into());
             info.insert("stored_bricks".into(), occ.stored_bricks().into());
+            info.insert("full_bricks".into(), occ.full_bricks().into());
             Renderer::Grid(occ)
         }
         Input::Volume(vol) => {

@@ -99,6 +99,35 @@ impl BitGrid {
         if on { *w |= m } else { *w &= !m }
     }
 
+    /// ORs `bits` into the eight bits at linear index `i..i + 8` (bit `k`
+    /// of `bits` is index `i + k`); every set bit must be below `len()`.
+    #[inline]
+    pub(crate) fn or_byte(&mut self, i: usize, bits: u8) {
+        debug_assert!(bits == 0 || i + 8 - (bits.leading_zeros() as usize) <= self.len);
+        let (w, o) = (i >> 6, i & 63);
+        self.words[w] |= u64::from(bits) << o;
+        if o > 56 {
+            let high = u64::from(bits) >> (64 - o);
+            if high != 0 {
+                self.words[w + 1] |= high;
+            }
+        }
+    }
+
+    /// The eight bits at linear index `i..i + 8` (bit `k` is index
+    /// `i + k`; indices past `len()` read as 0). `i < len()`.
+    #[inline]
+    pub(crate) fn byte_at(&self, i: usize) -> u8 {
+        let (w, o) = (i >> 6, i & 63);
+        let mut bits = self.words[w] >> o;
+        if o > 56
+            && let Some(next) = self.words.get(w + 1)
+        {
+            bits |= next << (64 - o);
+        }
+        bits as u8
+    }
+
     /// Number of set voxels.
     pub fn count_ones(&self) -> u64 {
         self.words.iter().map(|w| w.count_ones() as u64).sum()

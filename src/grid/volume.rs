@@ -6,7 +6,7 @@
 //! the crate; sample `(i, j, k)` sits at the centre of voxel `(i, j, k)`,
 //! i.e. on the integer point `(i, j, k)` of grid space.
 
-use glam::{DMat3, DVec3, IVec3};
+use glam::{DMat3, DVec3};
 
 use super::{BrickGrid, DenseGrid, Dims, GridFrame, MemoryLimit, cell_count};
 use crate::error::{Result, VoxkitError};
@@ -575,18 +575,21 @@ fn select<T: Sample>(v: &[T], mut rank: usize, counts: &mut [usize]) -> f64 {
 
 fn occupancy<T: Sample>(v: &[T], dims: Dims) -> BrickGrid {
     let [nx, ny, _] = dims;
-    let mut grid = BrickGrid::new();
-    // `ScalarVolume::new` checked that every coordinate fits an i32.
-    for (i, _) in v.iter().enumerate().filter(|(_, s)| s.is_set()) {
-        let (x, yz) = (i % nx, i / nx);
-        grid.insert(IVec3::new(x as i32, (yz % ny) as i32, (yz / ny) as i32));
-    }
-    grid
+    // `ScalarVolume::new` checked that every coordinate fits an i32. Brick
+    // by brick, full bricks as tiles.
+    BrickGrid::from_x_rows(dims, |p| {
+        let i = p.x as usize + nx * (p.y as usize + ny * p.z as usize);
+        let row = &v[i..i + (nx - p.x as usize).min(8)];
+        row.iter()
+            .enumerate()
+            .fold(0u8, |r, (k, s)| r | u8::from(s.is_set()) << k)
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::IVec3;
 
     fn vol(dims: Dims, data: VolumeData) -> ScalarVolume {
         ScalarVolume::new(dims, data, VolumeFrame::default()).unwrap()

@@ -45,42 +45,59 @@ pub fn write(
         o.z,
         d as f64 * frame.voxel_size
     )?;
-    limit.check("binvox writer bricks", grid.brick_count() as u128, 96)?;
+    // The writer's own memory: the brick order (4 bytes per stored mask)
+    // and one brick layer (up to (d/8)² bricks of 24 bytes), never a
+    // mask per tile.
+    let layer = (d as u128).div_ceil(8).pow(2);
+    limit.check(
+        "binvox writer bricks",
+        4 * grid.mask_count() as u128 + 24 * layer,
+        1,
+    )?;
     write_runs(w, grid, d as u64)
 }
 
+/// Bit `ly` of the result is bit `8 ly` of `column` (the y column of a
+/// brick word at `lx = 0`): the eight bits are gathered by one multiply
+/// (the shifted copies land on distinct bits of the top byte, no carries).
+#[inline]
+fn column_bits(column: u64) -> u8 {
+    (column.wrapping_mul(0x0102_0408_1020_4080) >> 56) as u8
+}
+
 /// The data section: runs over the `d³` voxels in binvox order (x, then z,
-/// then y fastest), computed from the bricks alone: bricks sorted by
-/// `(x, z, y)` are walked one x layer and one z row at a time, each brick
-/// giving the 8 voxels of its y column at that `(x, z)` by a shift and a
-/// mask, and the gaps between set voxels are the zero runs. The cost grows
-/// with the occupied bricks and the number of runs, not with `d³` (a 1024³
-/// box is 10^9 voxels, a surface in it a few million), and nothing is
+/// then y fastest), computed from the bricks alone: one x layer of bricks
+/// at a time ([`BrickGrid::brick_layers`]), sorted by `(z, y)`, walked one
+/// z row at a time, each brick giving the 8 voxels of its y column at that
+/// `(x, z)` by a shift and a gather, its runs of set voxels (a tile's
+/// column is one run of 8) joined by the zero runs between them. The cost
+/// grows with the occupied bricks and the number of runs, not with `d³` (a
+/// 1024³ box is 10^9 voxels, a surface in it a few million), and nothing is
 /// sorted per voxel.
 fn write_runs(w: &mut dyn Write, grid: &BrickGrid, d: u64) -> Result<()> {
-    let mut bricks: Vec<(Voxel, [u64; 8])> = grid.bricks().map(|(k, m)| (k, *m)).collect();
-    bricks.sort_unstable_by_key(|(k, _)| (k.x, k.z, k.y));
     let mut rle = Rle::default();
     let mut out = Vec::with_capacity(1 << 16);
     let mut pos = 0u64; // next voxel index to encode
     // Bit `x + 8·y` of a brick word holds (x, y): the column at x.
     const COLUMN: u64 = 0x0101_0101_0101_0101;
-    for slab in bricks.chunk_by(|a, b| a.0.x == b.0.x) {
+    for (bx, mut slab) in grid.brick_layers(0) {
+        slab.sort_unstable_by_key(|(k, _)| (k.z, k.y));
         for lx in 0..8 {
-            let x = slab[0].0.x as u64 * 8 + lx;
+            let x = bx as u64 * 8 + lx;
             for row in slab.chunk_by(|a, b| a.0.z == b.0.z) {
                 for lz in 0..8 {
                     let z = row[0].0.z as u64 * 8 + lz;
                     let line = (x * d + z) * d;
                     for (k, m) in row {
-                        let mut column = m[lz as usize] >> lx & COLUMN;
-                        while column != 0 {
-                            let y = k.y as u64 * 8 + u64::from(column.trailing_zeros() / 8);
-                            column &= column - 1;
-                            let at = line + y;
+                        let mut ys = column_bits(m[lz as usize] >> lx & COLUMN);
+                        while ys != 0 {
+                            let y0 = ys.trailing_zeros();
+                            let len = (!(ys >> y0)).trailing_zeros();
+                            ys &= !((((1u16 << len) - 1) << y0) as u8);
+                            let at = line + k.y as u64 * 8 + u64::from(y0);
                             rle.push_run(0, at - pos, &mut out);
-                            rle.push_run(1, 1, &mut out);
-                            pos = at + 1;
+                            rle.push_run(1, u64::from(len), &mut out);
+                            pos = at + u64::from(len);
                         }
                     }
                 }
@@ -205,7 +222,12 @@ pub fn read(bytes: &[u8], limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)> 
     if !data.len().is_multiple_of(2) {
         return Err(bad("data ends in the middle of a run (truncated?)"));
     }
+    // Runs arrive x layer by x layer: the bricks of one x layer of bricks
+    // are gathered in `layer` and moved into `grid` when x leaves it, full
+    // ones as tiles, so reading a solid never holds its interior as masks.
     let mut grid = BrickGrid::new();
+    let mut layer = BrickGrid::new();
+    let mut layer_x = 0i32;
     let mut index: u128 = 0;
     for (k, pair) in data.chunks_exact(2).enumerate() {
         let (value, count) = (pair[0], pair[1] as u128);
@@ -219,16 +241,23 @@ pub fn read(bytes: &[u8], limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)> 
                 "data covers more than the {total} voxels of the grid"
             )));
         }
-        if value == 1 {
-            for i in index..index + count {
-                let x = i / plane;
-                let z = (i % plane) / col;
-                let y = i % col;
-                grid.insert(Voxel::new(x as i32, y as i32, z as i32));
+        // The run's pieces along y columns.
+        let mut i = index;
+        while value == 1 && i < index + count {
+            let (x, z, y) = (i / plane, (i % plane) / col, i % col);
+            let n = (col - y).min(index + count - i);
+            let (x, z) = (x as i32, z as i32);
+            if x >> 3 != layer_x {
+                grid.union_with(&layer);
+                layer = BrickGrid::new();
+                layer_x = x >> 3;
             }
+            set_column(&mut layer, x, z, y as i32, (y + n) as i32);
+            i += n;
         }
         index += count;
     }
+    grid.union_with(&layer);
     if index != total {
         return Err(bad(&format!(
             "data covers {index} of {total} voxels (truncated?)"
@@ -236,6 +265,21 @@ pub fn read(bytes: &[u8], limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)> 
     }
     let hmax = *dims.iter().max().expect("three dims") as f64;
     Ok((grid, GridFrame::new(translate, scale / hmax, dims)))
+}
+
+/// Sets voxels `(x, y, z)` for `y` in `y0..y1`, a brick word at a time.
+fn set_column(grid: &mut BrickGrid, x: i32, z: i32, y0: i32, y1: i32) {
+    let mut y = y0;
+    while y < y1 {
+        let by = y >> 3;
+        let stop = (8 * by + 8).min(y1);
+        let mut m = [0u64; 8];
+        for ly in (y & 7)..(stop - 8 * by) {
+            m[(z & 7) as usize] |= 1u64 << ((x & 7) + 8 * ly);
+        }
+        grid.or_brick(Voxel::new(x >> 3, by, z >> 3), &m);
+        y = stop;
+    }
 }
 
 #[cfg(test)]
@@ -259,6 +303,15 @@ mod rle_tests {
             out.extend_from_slice(&[value, count]);
         }
         out
+    }
+
+    #[test]
+    fn column_bits_gathers_every_eighth_bit() {
+        for b in 0..=255u8 {
+            let column = (0..8).fold(0u64, |c, y| c | u64::from(b >> y & 1) << (8 * y));
+            // Other bits of the word never leak in once masked to the column.
+            assert_eq!(column_bits(column), b);
+        }
     }
 
     #[test]
@@ -287,9 +340,31 @@ mod rle_tests {
                     dense[((c[0] as u64 * d + c[2] as u64) * d + y as u64) as usize] = 1;
                 }
             }
+            // Tiles: whole bricks inside the box, beside partial ones.
+            let bricks_inside = (d / 8) as i32;
+            for _ in 0..if case % 4 == 1 { n.min(12) } else { 0 } {
+                if bricks_inside == 0 {
+                    break;
+                }
+                let b = [0; 3].map(|_| rng.random_range(0..bricks_inside));
+                grid.insert_tile(Voxel::from_array(b));
+                for l in 0..512 {
+                    let v = [b[0] * 8 + l % 8, b[1] * 8 + l / 8 % 8, b[2] * 8 + l / 64];
+                    dense[((v[0] as u64 * d + v[2] as u64) * d + v[1] as u64) as usize] = 1;
+                }
+            }
             let mut out = Vec::new();
             write_runs(&mut out, &grid, d).unwrap();
             assert_eq!(out, reference(&[dense]), "case {case}");
+            // And back: the same voxels, full bricks as tiles.
+            let mut file = format!("#binvox 1\ndim {d} {d} {d}\ndata\n").into_bytes();
+            file.extend_from_slice(&out);
+            let (back, _) = read(&file, MemoryLimit::DEFAULT).unwrap();
+            assert_eq!(back, grid, "case {case}");
+            assert!(
+                back.bricks()
+                    .all(|(k, m)| back.is_tile(k) || *m != [u64::MAX; 8])
+            );
         }
     }
 }

@@ -6,7 +6,7 @@
 //! `ndarray-npy`.
 //!
 //! The format records no frame: the reader returns origin 0, voxel size 1 and
-//! dims = shape. The reader also accepts `bool` arrays; it checks the shape in
+//! dims = shape, with every full brick as a tile. The reader also accepts `bool` arrays; it checks the shape in
 //! the header against the [`MemoryLimit`] before reading the data.
 
 use std::io::Write;
@@ -17,7 +17,7 @@ use ndarray_npy::ReadNpyExt;
 use super::voxels::for_each_slab;
 
 use crate::error::{Result, VoxkitError};
-use crate::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
+use crate::grid::{BrickGrid, GridFrame, MemoryLimit};
 
 /// Writes `grid` (voxels inside `frame.dims`, checked by the caller) as a
 /// dense `[nx, ny, nz]` u8 array, streamed in x-slabs of 8 (the slab buffer
@@ -116,19 +116,19 @@ pub fn read(bytes: &[u8], limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)> 
             Err(_) => return Err(VoxkitError::invalid(format!("npy: {e8}"))),
         },
     };
-    let mut grid = BrickGrid::new();
-    for ((x, y, z), &c) in a.indexed_iter() {
-        if c != 0 {
-            grid.insert(Voxel::new(x as i32, y as i32, z as i32));
-        }
-    }
     let (nx, ny, nz) = a.dim();
+    // Brick by brick, full bricks as tiles.
+    let grid = BrickGrid::from_x_rows([nx, ny, nz], |v| {
+        let (x, y, z) = (v.x as usize, v.y as usize, v.z as usize);
+        (0..(nx - x).min(8)).fold(0u8, |r, i| r | u8::from(a[[x + i, y, z]] != 0) << i)
+    });
     Ok((grid, GridFrame::new(glam::DVec3::ZERO, 1.0, [nx, ny, nz])))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::grid::Voxel;
     use rand::{Rng, SeedableRng};
 
     #[test]

@@ -24,7 +24,7 @@
 //! [`VoxkitError::Unsupported`]), types `uchar`/`uint8` (and the other 8-bit
 //! spellings), and either `space directions` (which must be axis-aligned with
 //! one positive spacing: our frames have cubic voxels) or `spacings`; any
-//! nonzero byte is a set voxel.
+//! nonzero byte is a set voxel, and every full brick becomes a tile.
 
 use std::io::Write;
 
@@ -32,7 +32,7 @@ use glam::DVec3;
 
 use super::voxels::for_each_slab;
 use crate::error::{Result, VoxkitError};
-use crate::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
+use crate::grid::{BrickGrid, GridFrame, MemoryLimit};
 
 /// Writes `grid` (voxels inside `frame.dims`, checked by the caller) as NRRD,
 /// streaming z-slabs.
@@ -61,6 +61,24 @@ pub fn write(
 
 fn bad(m: impl std::fmt::Display) -> VoxkitError {
     VoxkitError::invalid(format!("nrrd: {m}"))
+}
+
+/// Bit `i` set where byte `i` of `bytes` (at most 8) is nonzero.
+#[inline]
+fn nonzero_bits(bytes: &[u8]) -> u8 {
+    if let Ok(eight) = <[u8; 8]>::try_from(bytes) {
+        // Each byte's OR of its bits lands in its low bit, and one multiply
+        // gathers the eight low bits into the top byte.
+        let mut w = u64::from_le_bytes(eight);
+        w |= w >> 4;
+        w |= w >> 2;
+        w |= w >> 1;
+        return ((w & 0x0101_0101_0101_0101).wrapping_mul(0x0102_0408_1020_4080) >> 56) as u8;
+    }
+    bytes
+        .iter()
+        .enumerate()
+        .fold(0, |r, (i, &b)| r | u8::from(b != 0) << i)
 }
 
 /// Parses `(a,b,c)` vectors.
@@ -203,17 +221,12 @@ pub fn read(bytes: &[u8], limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)> 
     if data.len() as u128 > n {
         return Err(bad(format!("data has {} bytes, {n} expected", data.len())));
     }
-    let mut grid = BrickGrid::new();
+    // Brick by brick, full bricks as tiles.
     let (nx, ny) = (dims[0], dims[1]);
-    for (i, &b) in data.iter().enumerate() {
-        if b != 0 {
-            grid.insert(Voxel::new(
-                (i % nx) as i32,
-                ((i / nx) % ny) as i32,
-                (i / (nx * ny)) as i32,
-            ));
-        }
-    }
+    let grid = BrickGrid::from_x_rows(dims, |v| {
+        let i = v.x as usize + nx * (v.y as usize + ny * v.z as usize);
+        nonzero_bits(&data[i..i + (nx - v.x as usize).min(8)])
+    });
     Ok((
         grid,
         GridFrame::new(centre - DVec3::splat(h / 2.0), h, dims),

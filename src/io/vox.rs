@@ -9,6 +9,9 @@
 //! - one `LAYR` (layer 0). No palette: voxels use colour index 1 of the
 //!   default palette.
 //!
+//! The writer streams model by model from the bricks (a tile becomes its
+//! 512 records directly); the reader turns every full brick into a tile.
+//!
 //! Axes are kept as they are: our (x, y, z) is MagicaVoxel's (x, y, z) (so
 //! z is "up" in MagicaVoxel).
 //!
@@ -59,45 +62,87 @@ fn put_dict(out: &mut Vec<u8>, pairs: &[(&str, String)]) {
     }
 }
 
-/// Writes `grid` (voxels inside `frame.dims`, checked by the caller) as .vox.
+/// Writes `grid` (voxels inside `frame.dims`, checked by the caller) as .vox,
+/// streamed one model at a time ([`BrickGrid::brick_groups`]): a first pass
+/// counts each model's voxels (512 per tile) so the chunk sizes are known,
+/// then each model's `XYZI` records are written from its bricks, so the
+/// writer holds one model's brick list, not the file. Errors: a scene over
+/// the format's 4 GiB chunk size.
 pub fn write(w: &mut dyn Write, grid: &BrickGrid, frame: &GridFrame) -> Result<()> {
-    // Bricks (8) tile 256-blocks exactly: group voxels by block.
-    let per_block = (MAX_MODEL as i32) / BRICK_EDGE;
-    let mut blocks: HashMap<IVec3, Vec<[u8; 4]>> = HashMap::new();
-    for (k, m) in grid.sorted_bricks() {
-        let block = k.div_euclid(IVec3::splat(per_block));
-        let list = blocks.entry(block).or_default();
-        let base = k * BRICK_EDGE - block * MAX_MODEL as i32;
-        for l in mask_voxels(m) {
-            let l = base + l;
-            list.push([l.x as u8, l.y as u8, l.z as u8, 1]);
-        }
+    // Bricks (8) tile 256-blocks exactly: 32 bricks per model side.
+    const MODEL_SHIFT: u32 = 5;
+    debug_assert_eq!(MAX_MODEL as i32, BRICK_EDGE << MODEL_SHIFT);
+    let mut counts: HashMap<IVec3, u64> = HashMap::new();
+    for (k, m) in grid.bricks() {
+        let n: u32 = m.iter().map(|w| w.count_ones()).sum();
+        *counts.entry(k >> MODEL_SHIFT as i32).or_default() += u64::from(n);
     }
-    let mut order: Vec<IVec3> = blocks.keys().copied().collect();
+    let mut order: Vec<IVec3> = counts.keys().copied().collect();
     order.sort_unstable_by_key(|b| (b.z, b.y, b.x));
     if order.is_empty() {
         order.push(IVec3::ZERO);
-        blocks.insert(IVec3::ZERO, Vec::new());
+        counts.insert(IVec3::ZERO, 0);
     }
+    let offsets: Vec<(IVec3, [i32; 3])> = order
+        .iter()
+        .map(|b| {
+            let o = *b * MAX_MODEL as i32;
+            let size =
+                std::array::from_fn(|a| (frame.dims[a] - o[a] as usize).min(MAX_MODEL) as i32);
+            (o, size)
+        })
+        .collect();
+    let scene = scene_chunks(frame, &offsets);
+    // MAIN's children: per model SIZE (12 + 12) and XYZI (12 + 4 + 4 n).
+    let total: u64 = order.iter().map(|b| 40 + 4 * counts[b]).sum::<u64>() + scene.len() as u64;
+    let total = u32::try_from(total).map_err(|_| {
+        VoxkitError::Unsupported(format!(
+            "vox: the scene needs {total} bytes, over the format's 4 GiB chunk size"
+        ))
+    })?;
 
-    let mut main = Vec::new();
-    let mut offsets = Vec::with_capacity(order.len());
-    for b in &order {
-        let o = *b * MAX_MODEL as i32;
-        let size: [i32; 3] =
-            std::array::from_fn(|a| (frame.dims[a] - o[a] as usize).min(MAX_MODEL) as i32);
+    let mut head = Vec::with_capacity(20);
+    head.extend_from_slice(b"VOX ");
+    put_i32(&mut head, 150);
+    chunk(&mut head, b"MAIN", &[], &[]);
+    // Patch MAIN's children size (the children follow directly).
+    head[16..20].copy_from_slice(&total.to_le_bytes());
+    w.write_all(&head)?;
+
+    let mut groups = grid.brick_groups(MODEL_SHIFT).peekable();
+    let mut out: Vec<u8> = Vec::with_capacity(1 << 16);
+    for (b, (o, size)) in order.iter().zip(&offsets) {
         let mut c = Vec::with_capacity(12);
         size.iter().for_each(|&s| put_i32(&mut c, s));
-        chunk(&mut main, b"SIZE", &c, &[]);
-        let vox = &blocks[b];
-        let mut c = Vec::with_capacity(4 + 4 * vox.len());
-        put_i32(&mut c, vox.len() as i32);
-        vox.iter().for_each(|v| c.extend_from_slice(v));
-        chunk(&mut main, b"XYZI", &c, &[]);
-        offsets.push((o, size));
+        chunk(&mut out, b"SIZE", &c, &[]);
+        let n = counts[b];
+        out.extend_from_slice(b"XYZI");
+        out.extend_from_slice(&(4 + 4 * n as u32).to_le_bytes());
+        out.extend_from_slice(&0u32.to_le_bytes());
+        put_i32(&mut out, n as i32);
+        if let Some((_, bricks)) = groups.next_if(|(g, _)| g == b) {
+            for (k, m) in bricks {
+                let base = k * BRICK_EDGE - *o;
+                for l in mask_voxels(*m) {
+                    let l = base + l;
+                    out.extend_from_slice(&[l.x as u8, l.y as u8, l.z as u8, 1]);
+                }
+                if out.len() >= 1 << 16 {
+                    w.write_all(&out)?;
+                    out.clear();
+                }
+            }
+        }
     }
+    w.write_all(&out)?;
+    w.write_all(&scene)?;
+    Ok(())
+}
 
-    // Scene graph.
+/// The scene graph after the models: root `nTRN` with the frame, `nGRP`,
+/// per model an `nTRN` (its translation) and an `nSHP`, and one `LAYR`.
+fn scene_chunks(frame: &GridFrame, offsets: &[(IVec3, [i32; 3])]) -> Vec<u8> {
+    let mut main = Vec::new();
     let o = frame.origin;
     let mut c = Vec::new();
     put_i32(&mut c, 0);
@@ -153,18 +198,7 @@ pub fn write(w: &mut dyn Write, grid: &BrickGrid, frame: &GridFrame) -> Result<(
     put_dict(&mut c, &[]);
     put_i32(&mut c, -1);
     chunk(&mut main, b"LAYR", &c, &[]);
-
-    let mut head = Vec::with_capacity(20);
-    head.extend_from_slice(b"VOX ");
-    put_i32(&mut head, 150);
-    w.write_all(&head)?;
-    let mut wrapper = Vec::with_capacity(12);
-    chunk(&mut wrapper, b"MAIN", &[], &[]);
-    // Patch MAIN's children size (the children follow directly).
-    wrapper[8..12].copy_from_slice(&(main.len() as u32).to_le_bytes());
-    w.write_all(&wrapper)?;
-    w.write_all(&main)?;
-    Ok(())
+    main
 }
 
 /// Little-endian cursor with truncation errors.
@@ -552,6 +586,7 @@ fn read_scene(
     };
     let mut grid = BrickGrid::new();
     grid.extend(records().map(|(v, _)| v));
+    grid.compact_tiles();
     grid.check_inside(frame.dims)?;
     let mut voxels = Vec::new();
     if colors {

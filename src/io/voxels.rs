@@ -2,16 +2,19 @@
 //! [`super::binvox`], [`super::vox`], [`super::npy`] and [`super::nrrd`].
 //!
 //! Writers take a sparse [`BrickGrid`] plus its [`GridFrame`]; every set voxel
-//! must lie in `0..frame.dims`. The streaming writers (binvox, NRRD) never
-//! build the whole dense grid: they fill one slab of 8 layers at a time from
-//! the bricks of that slab. Readers return a [`BrickGrid`] and the frame the
+//! must lie in `0..frame.dims`. No writer builds the whole dense grid or a
+//! mask per tile: binvox, npy and NRRD stream one brick layer at a time
+//! ([`BrickGrid::brick_layers`]), .vox one 256³ model at a time
+//! ([`BrickGrid::brick_groups`]), a tile becoming runs, rows or voxels
+//! directly. Readers return a [`BrickGrid`] with every full brick as a tile
+//! (so a solid read back is as small as the solid written) and the frame the
 //! file records (see each format for what it can record).
 
 use std::path::Path;
 
 use crate::error::{Result, VoxkitError};
-use crate::grid::brick::{BRICK_EDGE, BrickMask, mask_voxels};
-use crate::grid::{BrickGrid, Dims, GridFrame, MemoryLimit, Voxel};
+use crate::grid::brick::{BRICK_EDGE, FULL_BRICK, mask_voxels};
+use crate::grid::{BrickGrid, Dims, GridFrame, MemoryLimit};
 
 /// A voxel file format, chosen by extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -144,6 +147,8 @@ pub(crate) fn check_frame(frame: &GridFrame) -> Result<()> {
 /// `order = [slow, mid, fast]` (axis numbers), in slabs of up to 8 layers
 /// along `slow`: `emit` gets each slab's bytes (`layers * n_mid * n_fast`,
 /// slow-major). Every voxel must lie inside `dims` (checked by the caller).
+/// The slabs come from [`BrickGrid::brick_layers`]: one brick layer at a
+/// time, a tile filling its 64 rows of 8 bytes, never a mask per tile.
 pub(crate) fn for_each_slab(
     grid: &BrickGrid,
     dims: Dims,
@@ -155,18 +160,30 @@ pub(crate) fn for_each_slab(
     let (n_mid, n_fast) = (dims[mid], dims[fast]);
     let plane = n_mid * n_fast;
     limit.check("slab buffer", 8 * plane as u128, 1)?;
-    let mut by_slab: Vec<(Voxel, BrickMask)> = grid.bricks().map(|(k, m)| (k, *m)).collect();
-    by_slab.sort_unstable_by_key(|(k, _)| k[slow]);
+    let mut layers = grid.brick_layers(slow).peekable();
     let mut buf = vec![0u8; 8 * plane];
-    let mut next = 0;
     let n_slabs = dims[slow].div_ceil(8);
     for s in 0..n_slabs {
-        let layers = (dims[slow] - 8 * s).min(8);
-        let slab = &mut buf[..layers * plane];
+        let layers_here = (dims[slow] - 8 * s).min(8);
+        let slab = &mut buf[..layers_here * plane];
         slab.fill(0);
-        while next < by_slab.len() && by_slab[next].0[slow] as usize == s {
-            let (k, m) = &by_slab[next];
-            let base = *k * BRICK_EDGE;
+        let bricks = match layers.next_if(|(c, _)| *c as usize == s) {
+            Some((_, bricks)) => bricks,
+            None => Vec::new(),
+        };
+        for (k, m) in bricks {
+            let base = k * BRICK_EDGE;
+            if *m == FULL_BRICK {
+                // Inside the grid, so all 8 layers, rows and columns are.
+                for ls in 0..8 {
+                    for lm in 0..8 {
+                        let i =
+                            ls * plane + (base[mid] as usize + lm) * n_fast + base[fast] as usize;
+                        slab[i..i + 8].fill(1);
+                    }
+                }
+                continue;
+            }
             for l in mask_voxels(*m) {
                 let v = base + l;
                 let i = (v[slow] as usize - 8 * s) * plane
@@ -174,7 +191,6 @@ pub(crate) fn for_each_slab(
                     + v[fast] as usize;
                 slab[i] = 1;
             }
-            next += 1;
         }
         emit(slab)?;
     }

@@ -9,7 +9,10 @@
 //!   flags, Cohen-Or & Kaufman's "vicinity of an object"), both in the
 //!   [`BrickGrid`] layout (word `lz`, bit `lx + 8 ly`). Bricks are stored
 //!   where either mask is non-empty: the occupied bricks and the neighbours
-//!   the dilation spills into;
+//!   the dilation spills into. Every full brick (a tile of the grid, or a
+//!   full mask) shares one slot whose masks are all ones, so a solid's
+//!   interior costs the slot table's 4 bytes per brick and nothing more,
+//!   and the walk reads it like any other brick;
 //! - a proximity cloud (Cohen & Sheffer 1994) at brick granularity: per brick
 //!   the Chebyshev distance, in bricks, to the nearest brick holding an
 //!   occupied voxel (0 for those; saturated at 255), one byte per brick. A
@@ -20,7 +23,7 @@
 use glam::IVec3;
 
 use crate::error::Result;
-use crate::grid::brick::BrickMask;
+use crate::grid::brick::{BrickMask, FULL_BRICK};
 use crate::grid::{BrickGrid, MemoryLimit, Voxel};
 
 /// Largest grid side the ray caster takes: every in-grid segment is then
@@ -30,6 +33,10 @@ pub const MAX_RENDER_DIM: usize = 16384;
 /// `x` bits of column `lx = 0` / `lx = 7` in a brick word (bit `lx + 8 ly`).
 const X0: u64 = 0x0101_0101_0101_0101;
 const X7: u64 = 0x8080_8080_8080_8080;
+
+/// Slot of the shared full brick (occupancy and proximity all set): every
+/// tile and every full mask of the grid.
+pub(crate) const FULL_SLOT: u32 = 1;
 
 /// Palette indices per stored brick (`lx + 8 ly + 64 lz`) and the palette.
 pub(crate) type BrickColors = (Vec<[u8; 512]>, Box<[[u8; 4]; 256]>);
@@ -49,7 +56,11 @@ pub struct OccupancyGrid {
     /// Bricks per axis (`ceil(dims / 8)`).
     pub(crate) bdims: [i32; 3],
     pub(crate) slot: Vec<u32>,
+    /// Slot 0: the shared empty brick; slot [`FULL_SLOT`]: the shared full
+    /// brick; then one per brick with its own flags.
     pub(crate) bricks: Vec<BrickFlags>,
+    /// Bricks in the shared full slot.
+    full_bricks: usize,
     /// Per brick: Chebyshev distance in bricks to the nearest occupied one.
     pub(crate) dist: Vec<u8>,
     /// Per stored brick, per voxel (`lx + 8 ly + 64 lz`): palette index.
@@ -89,10 +100,24 @@ impl OccupancyGrid {
         let bindex = |b: IVec3| (b.x + bdims[0] * (b.y + bdims[1] * b.z)) as usize;
         let inside = |b: IVec3| (0..3).all(|k| b[k] >= 0 && b[k] < bdims[k]);
 
-        // Occupancy masks in a dense slot table first.
+        // Occupancy masks in a dense slot table first. Full bricks (tiles
+        // and full masks) share one slot: their flags are full too, since
+        // the dilation of a full brick covers it.
         let mut slot = vec![0u32; n];
-        let mut bricks = vec![BrickFlags::default()];
+        let mut bricks = vec![
+            BrickFlags::default(),
+            BrickFlags {
+                occ: FULL_BRICK,
+                prox: FULL_BRICK,
+            },
+        ];
+        let mut full_bricks = 0;
         for (b, m) in grid.bricks() {
+            if *m == FULL_BRICK {
+                slot[bindex(b)] = FULL_SLOT;
+                full_bricks += 1;
+                continue;
+            }
             if m.iter().all(|&w| w == 0) {
                 continue;
             }
@@ -102,26 +127,26 @@ impl OccupancyGrid {
                 prox: [0; 8],
             });
         }
-        let occupied_bricks = bricks.len() - 1;
+        let own_bricks = bricks.len() - 2;
         limit.check(
             "render bricks",
-            (occupied_bricks as u128) * 27 + cells,
+            (own_bricks as u128) * 27 + cells,
             std::mem::size_of::<BrickFlags>() as u128,
         )?;
-        // Targets of the dilation: the occupied bricks and their neighbours.
-        let mut targets: Vec<IVec3> = Vec::with_capacity(occupied_bricks * 4);
-        let occ_keys: Vec<IVec3> = grid
-            .bricks()
-            .filter(|(_, m)| m.iter().any(|&w| w != 0))
-            .map(|(b, _)| b)
-            .collect();
+        // Targets of the dilation: the occupied bricks and their neighbours,
+        // except full ones (already flagged everywhere), so the interior of
+        // a solid adds no work and no storage.
+        let mut targets: Vec<IVec3> = Vec::with_capacity(own_bricks * 4);
         let mut seen = vec![false; n];
-        for &b in &occ_keys {
+        for (b, _) in grid.bricks() {
             for dz in -1..=1 {
                 for dy in -1..=1 {
                     for dx in -1..=1 {
                         let t = b + IVec3::new(dx, dy, dz);
-                        if inside(t) && !std::mem::replace(&mut seen[bindex(t)], true) {
+                        if inside(t)
+                            && slot[bindex(t)] != FULL_SLOT
+                            && !std::mem::replace(&mut seen[bindex(t)], true)
+                        {
                             targets.push(t);
                         }
                     }
@@ -162,6 +187,7 @@ impl OccupancyGrid {
             bdims,
             slot,
             bricks,
+            full_bricks,
             dist,
             colors: None,
             voxels: grid.count(),
@@ -171,14 +197,50 @@ impl OccupancyGrid {
 
     /// Attaches colours: a palette index per occupied voxel and the RGBA
     /// palette (MagicaVoxel files). Voxels without an entry get index 0.
+    ///
+    /// Colours are per slot, so full bricks keep sharing theirs only where
+    /// every voxel has one and the same colour (as in the files voxkit
+    /// writes); any other full brick gets a slot of its own.
     pub fn set_colors(&mut self, voxels: &[(Voxel, u8)], palette: [[u8; 4]; 256]) {
+        let in_full = |o: &Self, v: Voxel| o.in_grid(v) && o.slot_of(v) == FULL_SLOT;
+        let shared = voxels
+            .iter()
+            .find(|&&(v, _)| in_full(self, v))
+            .map_or(0, |&(_, c)| c);
+        // Which voxels of each shared brick have the shared colour (only
+        // needed when that colour is not the 0 of voxels without one).
+        let mut covered: std::collections::HashMap<usize, BrickMask> = Default::default();
+        let unshare = |o: &mut Self, i: usize| {
+            o.slot[i] = o.bricks.len() as u32;
+            o.bricks.push(o.bricks[FULL_SLOT as usize]);
+            o.full_bricks -= 1;
+        };
+        for &(v, c) in voxels {
+            if in_full(self, v) {
+                let i = self.brick_index(v >> 3);
+                if c != shared {
+                    unshare(self, i);
+                } else if shared != 0 {
+                    let (w, bit) = word_bit(v);
+                    covered.entry(i).or_default()[w] |= 1 << bit;
+                }
+            }
+        }
+        if shared != 0 {
+            for i in 0..self.slot.len() {
+                if self.slot[i] == FULL_SLOT && covered.get(&i) != Some(&FULL_BRICK) {
+                    unshare(self, i);
+                }
+            }
+        }
         let mut per_brick = vec![[0u8; 512]; self.bricks.len()];
+        per_brick[FULL_SLOT as usize] = [shared; 512];
         for &(v, c) in voxels {
             if !self.in_grid(v) {
                 continue;
             }
             let s = self.slot_of(v) as usize;
-            if s != 0 {
+            if s != 0 && s != FULL_SLOT as usize {
                 per_brick[s][local_index(v)] = c;
             }
         }
@@ -212,9 +274,15 @@ impl OccupancyGrid {
                 .map_or(0, |(c, _)| c.capacity() * 512 + 1024)
     }
 
-    /// Stored bricks (occupied or flagged).
+    /// Bricks with flags of their own (occupied or flagged, not full): 128
+    /// bytes each. Full bricks share one slot ([`OccupancyGrid::full_bricks`]).
     pub fn stored_bricks(&self) -> usize {
-        self.bricks.len() - 1
+        self.bricks.len() - 2
+    }
+
+    /// Full bricks (the grid's tiles and full masks), all sharing one slot.
+    pub fn full_bricks(&self) -> usize {
+        self.full_bricks
     }
 
     #[inline(always)]
@@ -464,6 +532,79 @@ mod tests {
                                 .min(255) as u8;
                             assert_eq!(occ.brick_distance(v), want, "{v}");
                         }
+                    }
+                }
+            }
+        }
+    }
+
+    /// With tiles (sharing the full slot) beside empty, partial and other
+    /// full bricks: occupancy, flags and the cloud still equal brute force
+    /// over the grid's voxels, and only the non-full bricks take slots.
+    #[test]
+    fn tiles_share_the_full_slot_and_flags_match_brute_force() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
+        let dims = [37, 26, 30];
+        let mut g = BrickGrid::new();
+        for b in [
+            [0, 0, 0],
+            [1, 0, 0],
+            [3, 2, 1],
+            [2, 1, 2],
+            [0, 2, 2],
+            [3, 0, 2],
+        ] {
+            g.insert_tile(IVec3::from_array(b));
+        }
+        for _ in 0..300 {
+            g.insert(IVec3::new(
+                rng.random_range(0..37),
+                rng.random_range(0..26),
+                rng.random_range(0..30),
+            ));
+        }
+        // A full brick stored as a mask shares the slot as well.
+        for i in 0..512 {
+            g.insert(IVec3::new(8 + i % 8, 16 + i / 8 % 8, i / 64));
+        }
+        assert_eq!(
+            (g.tile_count(), g.brick(IVec3::new(1, 2, 0))),
+            (6, Some(&FULL_BRICK))
+        );
+        let occ = OccupancyGrid::new(&g, dims, MemoryLimit::DEFAULT).unwrap();
+        let full = g.bricks().filter(|(_, m)| **m == FULL_BRICK).count();
+        assert!(full >= 7);
+        assert_eq!(occ.full_bricks(), full);
+        assert!(
+            occ.bricks[..2]
+                == [
+                    BrickFlags::default(),
+                    BrickFlags {
+                        occ: FULL_BRICK,
+                        prox: FULL_BRICK
+                    }
+                ]
+        );
+        assert!(occ.bricks[2..].iter().all(|b| b.occ != FULL_BRICK));
+        let voxels: Vec<IVec3> = g.iter().collect();
+        for z in -1..dims[2] as i32 + 1 {
+            for y in -1..dims[1] as i32 + 1 {
+                for x in -1..dims[0] as i32 + 1 {
+                    let v = IVec3::new(x, y, z);
+                    let inside = occ.in_grid(v);
+                    let near = (0..27)
+                        .any(|i| g.contains(v + IVec3::new(i % 3 - 1, i / 3 % 3 - 1, i / 9 - 1)));
+                    assert_eq!(occ.is_flagged(v), near && inside, "{v}");
+                    assert_eq!(occ.is_occupied(v), g.contains(v) && inside, "{v}");
+                    if inside {
+                        let b: IVec3 = v >> 3i32;
+                        let want = voxels
+                            .iter()
+                            .map(|s: &IVec3| ((*s >> 3i32) - b).abs().max_element())
+                            .min()
+                            .unwrap()
+                            .min(255) as u8;
+                        assert_eq!(occ.brick_distance(v), want, "{v}");
                     }
                 }
             }

@@ -140,7 +140,8 @@ pub fn measure_voxel_set(
             .map(|w| (o[w] & !m[w]).count_ones() as u64)
             .sum::<u64>();
     }
-    let (max_distance, mean_distance, far_voxels) = distances(grid, &rm.triangles, &rm.segments);
+    let (max_distance, mean_distance, far_voxels) =
+        distances(grid, &reference, &rm.triangles, &rm.segments);
     let mut out = ErrorMeasures {
         reference_voxels: reference.count(),
         missing,
@@ -293,22 +294,33 @@ pub fn is_closed(kept: &[SurfaceTriangle], degenerate: &[SurfaceTriangle]) -> bo
     !tris.is_empty() && edges.chunk_by(|a, b| a == b).all(|c| c.len() % 2 == 0)
 }
 
-/// Rank index of the voxels of a brick grid: voxel → position in a compact
-/// array (brick base + popcount rank inside the brick).
+/// Rank index of the voxels of the bricks of a brick grid that `near`
+/// accepts: voxel → position in a compact array (brick base + popcount rank
+/// inside the brick). `left_out` counts the voxels of the other bricks.
 struct VoxelIndex {
     bricks: HashMap<Voxel, (usize, BrickMask), std::hash::BuildHasherDefault<FxHasher>>,
     len: usize,
+    left_out: u64,
 }
 
 impl VoxelIndex {
-    fn new(g: &BrickGrid) -> Self {
-        let mut bricks = HashMap::with_capacity_and_hasher(g.brick_count(), Default::default());
-        let mut len = 0;
+    fn new(g: &BrickGrid, near: impl Fn(Voxel) -> bool) -> Self {
+        let mut bricks = HashMap::default();
+        let (mut len, mut left_out) = (0, 0);
         for (b, m) in g.bricks() {
-            bricks.insert(b, (len, *m));
-            len += m.iter().map(|w| w.count_ones() as usize).sum::<usize>();
+            let n = m.iter().map(|w| w.count_ones() as usize).sum::<usize>();
+            if near(b) {
+                bricks.insert(b, (len, *m));
+                len += n;
+            } else {
+                left_out += n as u64;
+            }
         }
-        VoxelIndex { bricks, len }
+        VoxelIndex {
+            bricks,
+            len,
+            left_out,
+        }
     }
 
     fn get(&self, v: Voxel) -> Option<usize> {
@@ -328,12 +340,22 @@ fn to_dvec(p: [i64; 3]) -> DVec3 {
 }
 
 /// `(max, mean, far)` of the output voxels' distances (module docs).
+/// Only voxels within one voxel of a `reference` voxel can get a distance,
+/// so only bricks within one brick of a reference brick are indexed; the
+/// voxels of the others (a solid's interior) are far without a slot each.
 fn distances(
     grid: &BrickGrid,
+    reference: &BrickGrid,
     tris: &[SurfaceTriangle],
     segs: &[SurfaceSegment],
 ) -> (f64, f64, u64) {
-    let index = VoxelIndex::new(grid);
+    let index = VoxelIndex::new(grid, |b| {
+        (0..27).any(|i| {
+            reference
+                .brick(b + Voxel::new(i % 3 - 1, i / 3 % 3 - 1, i / 9 - 1))
+                .is_some()
+        })
+    });
     let best: Vec<AtomicU64> = (0..index.len)
         .map(|_| AtomicU64::new(f64::INFINITY.to_bits()))
         .collect();
@@ -371,7 +393,7 @@ fn distances(
             point_segment_distance(p, a, b)
         });
     });
-    let (mut max, mut sum, mut n, mut far) = (0f64, 0f64, 0u64, 0u64);
+    let (mut max, mut sum, mut n, mut far) = (0f64, 0f64, 0u64, index.left_out);
     for d in &best {
         let d = f64::from_bits(d.load(Ordering::Relaxed));
         // At 3/2 or more the candidates may miss a nearer triangle outside

@@ -3,6 +3,7 @@
 //! tiny hand-made grids (binvox order and RLE, npy axes, NRRD header and
 //! order, vox chunks), atomic no-overwrite writes, and bad files.
 
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 use glam::{DVec3, IVec3};
@@ -537,5 +538,89 @@ fn vox_files_load_in_an_independent_reader_with_every_voxel_in_place() {
         let mut want: Vec<[i32; 3]> = grid.iter().map(|v| v.to_array()).collect();
         want.sort();
         assert_eq!(placed, want, "{dims:?}");
+    }
+}
+
+/// A solid ball inside `dims` as tiles and masks (every full brick a tile),
+/// plus scattered voxels; brick boundaries and the box's far faces are cut.
+pub fn tiled_ball(rng: &mut ChaCha8Rng, dims: [usize; 3]) -> BrickGrid {
+    let c = DVec3::from_array(dims.map(|d| d as f64)) * 0.5;
+    let r2 = (dims.iter().min().copied().unwrap() as f64 * 0.45).powi(2);
+    let mut g = BrickGrid::from_x_rows(dims, |v| {
+        (0..8).fold(0u8, |r, i| {
+            let p = (v + IVec3::new(i, 0, 0)).as_dvec3() + 0.5;
+            r | u8::from((p - c).length_squared() <= r2) << i
+        })
+    });
+    for _ in 0..2_000 {
+        g.insert(IVec3::new(
+            rng.random_range(0..dims[0] as i32),
+            rng.random_range(0..dims[1] as i32),
+            rng.random_range(0..dims[2] as i32),
+        ));
+    }
+    // Full bricks at the far corner: tiles touching the last valid voxel.
+    let far = IVec3::new(
+        dims[0] as i32 / 8 - 1,
+        dims[1] as i32 / 8 - 1,
+        dims[2] as i32 / 8 - 1,
+    );
+    g.insert_tile(far);
+    g.insert_tile(IVec3::ZERO);
+    g.compact_tiles();
+    g
+}
+
+/// Tiles round-trip through every format: the same voxels, and every full
+/// brick comes back as a tile (so the grid read back is as small as the one
+/// written). The .vox file also loads voxel for voxel in `dot_vox`.
+#[test]
+fn tiles_round_trip_through_every_format() {
+    let dir = temp_dir("tiles");
+    let mut rng = ChaCha8Rng::seed_from_u64(0x7115);
+    // Non-multiples of 8, over 256 on an axis (two .vox models), cubic.
+    for dims in [[70, 45, 300], [64, 64, 64], [41, 33, 45]] {
+        let grid = tiled_ball(&mut rng, dims);
+        assert!(
+            grid.tile_count() > 4,
+            "{dims:?}: {} tiles",
+            grid.tile_count()
+        );
+        assert!(grid.mask_count() > 10);
+        let full: HashSet<IVec3> = grid.tiles().collect();
+        let frame = GridFrame::new(DVec3::new(-1.0, 2.0, 0.5), 0.25, dims);
+        for ext in ["binvox", "vox", "npy", "nrrd"] {
+            let path = dir.join(format!("tiles.{ext}"));
+            write_voxels(&path, &grid, &frame, true).unwrap();
+            let (back, _) = read_voxels(&path, MemoryLimit::DEFAULT).unwrap();
+            assert_eq!(back, grid, "{ext} {dims:?}");
+            assert_eq!(back.tiles().collect::<HashSet<_>>(), full, "{ext} {dims:?}");
+            assert_eq!(back.mask_count(), grid.mask_count(), "{ext}");
+            assert!(
+                back.heap_bytes() <= 2 * grid.heap_bytes() + 4096,
+                "{ext}: {} bytes read back, {} written",
+                back.heap_bytes(),
+                grid.heap_bytes()
+            );
+            if ext == "vox" {
+                let placed = vox_scene_voxels(&std::fs::read(&path).unwrap());
+                let mut want: Vec<[i32; 3]> = grid.iter().map(|v| v.to_array()).collect();
+                want.sort();
+                assert_eq!(placed, want, "{dims:?}");
+            }
+        }
+        // The same voxels as stored masks write the same bytes.
+        let mut masks = BrickGrid::new();
+        masks.extend(grid.iter());
+        assert_eq!(masks.tile_count(), 0);
+        for ext in ["binvox", "vox", "npy", "nrrd"] {
+            let (a, b) = (dir.join(format!("a.{ext}")), dir.join(format!("b.{ext}")));
+            write_voxels(&a, &grid, &frame, true).unwrap();
+            write_voxels(&b, &masks, &frame, true).unwrap();
+            assert!(
+                std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap(),
+                "{ext} {dims:?}: tiles and full masks write different bytes"
+            );
+        }
     }
 }

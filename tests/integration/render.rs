@@ -417,3 +417,156 @@ fn bad_render_input_is_an_error() {
         Err(voxkit::VoxkitError::Limits { .. })
     ));
 }
+
+/// Scenes with tiles: a solid ball (tiles inside, masks on its surface,
+/// scattered voxels around) and a 3D checkerboard of tiles (every tile
+/// beside empty bricks), each with the same voxels stored as masks.
+fn tiled_scenes(rng: &mut ChaCha8Rng) -> Vec<(BrickGrid, BrickGrid, [usize; 3])> {
+    let mut scenes = Vec::new();
+    for dims in [[40, 37, 45], [64, 24, 33]] {
+        scenes.push(crate::formats::tiled_ball(rng, dims));
+    }
+    let mut checker = BrickGrid::new();
+    for z in 0..5 {
+        for y in 0..4 {
+            for x in 0..5 {
+                if (x + y + z) % 2 == 0 {
+                    checker.insert_tile(IVec3::new(x, y, z));
+                }
+            }
+        }
+    }
+    checker.insert(IVec3::new(12, 3, 30));
+    scenes.push(checker);
+    let dims = [[40, 37, 45], [64, 24, 33], [40, 32, 40]];
+    scenes
+        .into_iter()
+        .zip(dims)
+        .map(|(g, d)| {
+            assert!(g.tile_count() > 0);
+            (crate::bricks::materialized(&g), g, d)
+        })
+        .collect()
+}
+
+/// A grid with tiles renders pixel for pixel as the same voxels stored as
+/// masks, for every ray kind, with and without skipping, flat and smooth
+/// normals; on it the adaptive ray still equals the 6-ray and skipping
+/// changes nothing.
+#[test]
+fn tiled_grids_render_like_their_masks() {
+    let mut rng = ChaCha8Rng::seed_from_u64(0x711E);
+    for (masks, tiled, dims) in tiled_scenes(&mut rng) {
+        let occ = OccupancyGrid::new(&tiled, dims, MemoryLimit::DEFAULT).unwrap();
+        assert_eq!(
+            occ.full_bricks(),
+            masks.bricks().filter(|(_, m)| **m == [u64::MAX; 8]).count()
+        );
+        for c in 0..6 {
+            let cam = random_camera(&mut rng, dims);
+            let six = render(&tiled, dims, &cam, &opts(40, 32, RayKind::Six, false));
+            for kind in RayKind::ALL {
+                for skip in [true, false] {
+                    let mut o = opts(40, 32, kind, skip);
+                    if c % 2 == 1 {
+                        o.normals = NormalMode::Smooth;
+                    }
+                    let t = render(&tiled, dims, &cam, &o);
+                    let m = render(&masks, dims, &cam, &o);
+                    assert_eq!(t, m, "{kind:?} skip {skip}: tiles render differently");
+                    if matches!(kind, RayKind::Six | RayKind::Adaptive) {
+                        assert_eq!(t.hit, six.hit, "{kind:?} skip {skip}");
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// On grids with tiles the 6-ray's hit is still the first voxel the
+/// continuous segment meets (brute force over the voxels).
+#[test]
+fn six_ray_first_hits_on_tiled_grids() {
+    let mut rng = ChaCha8Rng::seed_from_u64(0x6711E);
+    for (_, g, _) in tiled_scenes(&mut rng) {
+        let occ = OccupancyGrid::new(
+            &g,
+            g.bounds()
+                .map(|(_, hi)| (hi + 1).to_array().map(|d| d as usize))
+                .unwrap(),
+            MemoryLimit::DEFAULT,
+        )
+        .unwrap();
+        let (lo, hi) = occ.bounds().unwrap();
+        let inset = 1.0 / 4096.0;
+        let (lo, hi) = (lo.as_dvec3() - 0.5 + inset, hi.as_dvec3() + 0.5 - inset);
+        for _ in 0..40 {
+            let p = |rng: &mut ChaCha8Rng| {
+                DVec3::new(
+                    rng.random_range(lo.x..=hi.x),
+                    rng.random_range(lo.y..=hi.y),
+                    rng.random_range(lo.z..=hi.z),
+                )
+            };
+            let (a, b) = (p(&mut rng), p(&mut rng));
+            let seg = voxkit::line::Segment::from_f64(a.to_array(), b.to_array()).unwrap();
+            let (fa, fb) = (
+                DVec3::from_array(seg.a().map(voxkit::fixed::to_f64)),
+                DVec3::from_array(seg.b().map(voxkit::fixed::to_f64)),
+            );
+            let want = brute_first_hit(&g, fa, fb);
+            for skip in [true, false] {
+                let got = voxkit::render::first_hit(&occ, &seg, RayKind::Six, skip);
+                if want != got {
+                    let tw = want.map(|v| entry_t(fa, fb, v));
+                    let tg = got.map(|v| entry_t(fa, fb, v));
+                    assert_eq!(tw, tg, "{a} → {b}: brute {want:?}, 6-ray {got:?}");
+                }
+            }
+        }
+    }
+}
+
+/// Colours on tiles: full bricks keep sharing one slot where every voxel
+/// has the one colour of the file, and get their own slot otherwise; either
+/// way each voxel shows its colour (0 where it has none), as on masks.
+#[test]
+fn colours_on_tiles_match_masks() {
+    let mut rng = ChaCha8Rng::seed_from_u64(0xC010);
+    let (masks, tiled, dims) = tiled_scenes(&mut rng).swap_remove(0);
+    let palette = voxkit::io::vox::default_palette();
+    let all: Vec<(IVec3, u8)> = tiled.iter().map(|v| (v, 1)).collect();
+    let mut varied = all.clone();
+    for (i, e) in varied.iter_mut().enumerate() {
+        if i % 997 == 0 {
+            e.1 = 7;
+        }
+    }
+    let partial: Vec<(IVec3, u8)> = all.iter().copied().filter(|(v, _)| v.x % 5 != 0).collect();
+    for (case, colors) in [all, varied, partial].iter().enumerate() {
+        let mut a = OccupancyGrid::new(&tiled, dims, MemoryLimit::DEFAULT).unwrap();
+        let mut b = OccupancyGrid::new(&masks, dims, MemoryLimit::DEFAULT).unwrap();
+        let full = a.full_bricks();
+        a.set_colors(colors, palette);
+        b.set_colors(colors, palette);
+        for v in tiled.iter() {
+            assert_eq!(a.color(v), b.color(v), "case {case} voxel {v}");
+        }
+        let want = colors
+            .iter()
+            .find(|(v, _)| *v == IVec3::new(20, 18, 22))
+            .map_or(0, |e| e.1);
+        assert_eq!(
+            a.color(IVec3::new(20, 18, 22)),
+            Some(palette[want as usize])
+        );
+        match case {
+            0 => assert_eq!(
+                a.full_bricks(),
+                full,
+                "uniform colours keep the shared slot"
+            ),
+            _ => assert!(a.full_bricks() < full),
+        }
+    }
+}

@@ -384,3 +384,37 @@ fn flood_matches_bfs_oracle_on_random_grids() {
         }
     }
 }
+
+/// Tunnel verdicts on a grid with tiles equal those on the same voxels
+/// stored as masks: a thick spherical shell (its wall holds whole bricks,
+/// which become tiles), closed and then drilled through (the drill clears
+/// voxels inside tiles, which then become masks).
+#[test]
+fn tiles_give_the_same_tunnel_verdicts_as_masks() {
+    use voxkit::grid::BrickGrid;
+    let (n, c) = (80usize, 40i32);
+    let shell = band(n, c, 14.0f64.powi(2), 36.0f64.powi(2));
+    let mut tiled = BrickGrid::from_bit_grid(&shell);
+    assert!(tiled.tile_count() > 100, "{} tiles", tiled.tile_count());
+    let seeds = vec![IVec3::splat(c), IVec3::new(c + 5, c - 3, c + 2)];
+    for drilled in [false, true] {
+        if drilled {
+            // A straight one-voxel hole along +x from the cavity outward.
+            for x in c..n as i32 {
+                tiled.remove(IVec3::new(x, c, c));
+            }
+        }
+        let mut masks = BrickGrid::new();
+        masks.extend(tiled.iter());
+        assert_eq!(masks.tile_count(), 0);
+        let a = tiled.to_bit_grid([n; 3], MemoryLimit::DEFAULT).unwrap();
+        let b = masks.to_bit_grid([n; 3], MemoryLimit::DEFAULT).unwrap();
+        assert_eq!(a, b);
+        for conn in ALL {
+            let va = closed_surface_tunnels(&a, conn, &seeds).unwrap();
+            let vb = closed_surface_tunnels(&b, conn, &seeds).unwrap();
+            assert_eq!(va, vb, "{conn:?}");
+            assert_eq!(va.tunnel, drilled, "{conn:?}");
+        }
+    }
+}
