@@ -27,6 +27,7 @@ use crate::io::{VoxelFormat, write_voxels_limited};
 use crate::mesh::Mesh;
 use crate::voxelize::measure::{ErrorMeasures, measure_voxelization};
 use crate::voxelize::pipeline::{Progress, VoxelizeMode, VoxelizeOptions, voxelize_mesh};
+use crate::voxelize::solid::InsideTest;
 
 /// The `--mode` values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -37,7 +38,7 @@ pub enum ModeArg {
     Thick,
     /// Every voxel whose closed cube meets the surface.
     Conservative,
-    /// Surface plus interior (3-axis parity voting).
+    /// Surface plus interior (generalized winding number ≥ ½; see --inside).
     Solid,
 }
 
@@ -66,6 +67,11 @@ pub struct VoxelizeArgs {
     /// Which voxel set.
     #[arg(long, value_enum, default_value = "thin")]
     pub mode: ModeArg,
+    /// Solid mode's inside test: the generalized winding number (robust to
+    /// holes, flipped faces and overlaps) or crossing parity (watertight
+    /// meshes only, fastest).
+    #[arg(long, value_enum, default_value = "winding")]
+    pub inside: InsideTest,
     /// Snap vertices to the voxel lattice (less exact).
     #[arg(long)]
     pub snap: bool,
@@ -153,6 +159,7 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let mut opts = VoxelizeOptions::new(args.resolution, args.mode.into());
     opts.snap = args.snap;
     opts.kahan_kelsen = args.kahan_kelsen;
+    opts.inside = args.inside;
     opts.limit = limit;
     if let Some(b) = &bar {
         let b = b.clone();
@@ -213,6 +220,14 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "voxelize_ms": s.total_ms,
         "write_ms": write_ms,
     });
+    if let Some(solid) = &s.solid {
+        let obj = j.as_object_mut().expect("json! of an object literal");
+        obj.insert("inside".into(), args.inside.name().into());
+        obj.insert("caps".into(), solid.caps.into());
+        obj.insert("crossings".into(), solid.crossings.into());
+        obj.insert("refined_bricks".into(), solid.refined_bricks.into());
+        obj.insert("winding_ambiguous".into(), solid.ambiguous.into());
+    }
     if let Some((m, measure_ms)) = measured {
         let m = m?;
         insert_measures(

@@ -24,7 +24,7 @@
 //!   `√3/2` of the surface, so surface modes have no far voxels;
 //! * **tunnels** (6 and 26) for closed meshes (every edge, keyed by its
 //!   fixed-point endpoints, shared by an even number of triangles): inside
-//!   seeds are the voxels of the 3-axis voting solid that are not output
+//!   seeds are the voxels inside by exact crossing parity that are not output
 //!   voxels, and a tunnel is an N-path of empty voxels from the grid border
 //!   to a seed ([`closed_surface_tunnels`]). Skipped with a note for open
 //!   meshes or when the dense grids (six bits per grid voxel plus 12 bytes
@@ -47,7 +47,7 @@ use crate::voxelize::pipeline::{
     QuantizedMesh, SurfaceSegment, Voxelization, conservative_grid, quantize_mesh,
     segment_to_reference, to_reference,
 };
-use crate::voxelize::solid::solid_voxels_voting;
+use crate::voxelize::solid::{InsideTest, solid_interior};
 use crate::voxelize::surface::{SurfaceTriangle, VOXEL_ONE};
 
 /// The error measures of one voxelization (see the [module docs](self)).
@@ -166,11 +166,17 @@ pub fn measure_voxel_set(
         ));
         return Ok(out);
     }
-    let fixed: Vec<_> = voxelized.triangles.par_iter().map(to_reference).collect();
     let occ = grid.to_bit_grid(dims, limit)?;
     let seeds = {
-        let solid = solid_voxels_voting(&fixed, dims, limit)?;
-        let interior = solid.count_ones().saturating_sub(grid.count());
+        // Closed: exact parity is the inside test.
+        let (solid, _) = solid_interior(
+            &voxelized.triangles,
+            &voxelized.degenerate,
+            dims,
+            InsideTest::Parity,
+            grid,
+        )?;
+        let interior = solid.count().saturating_sub(grid.count());
         if limit
             .check(
                 "tunnel seeds",
@@ -269,8 +275,8 @@ pub fn measure_external(
     Ok((m, frame))
 }
 
-fn inside_seeds(solid: &BitGrid, occ: &BitGrid) -> Vec<Voxel> {
-    solid.iter_ones().filter(|&v| !occ.get(v)).collect()
+fn inside_seeds(solid: &BrickGrid, occ: &BitGrid) -> Vec<Voxel> {
+    solid.iter().filter(|&v| !occ.get(v)).collect()
 }
 
 /// Whether every edge (by fixed-point endpoints) of `kept` and `degenerate`

@@ -9,7 +9,10 @@
 //! | module | what |
 //! |---|---|
 //! | [`conservative`] | exact triangle–box test (integer separating axes), per-triangle and mesh-level conservative sets |
-//! | [`solid`] | inside tests: generalized winding number, exact axis parity, 3-axis voting |
+//! | [`solid`] | solid mode's interior (winding number or parity, in tiles) and its references: brute-force winding number, dense axis parity |
+//! | [`caps`] | a mesh's boundary chain and the fans that close its holes |
+//! | [`fill`] | signed crossings along x-lines per brick layer → tiles and masks |
+//! | [`winding`] | Barnes–Hut winding numbers with rigorous error bounds; rim gradient bounds |
 //! | [`pipeline`] | mesh → brick grid: fitting, quantization, memory estimate, the four modes, polylines |
 //! | [`measure`] | error measures against the exact conservative set: missing/extra, distances, tunnels |
 //! | [`shapes`] | closed test meshes (UV sphere, torus, box) with rotations and offsets |
@@ -20,7 +23,9 @@
 //! `(i, j, k)` is the closed unit cube centred on the integer point `(i, j, k)`.
 //! Tunnel checks for the results live in [`crate::topology::tunnels`].
 
+pub mod caps;
 pub mod conservative;
+pub mod fill;
 pub mod measure;
 pub mod pipeline;
 pub mod shapes;
@@ -28,3 +33,4 @@ pub mod slab;
 pub mod snapped;
 pub mod solid;
 pub mod surface;
+pub mod winding;

@@ -39,15 +39,15 @@
 //! clamped into the grid, as for triangles.
 //!
 //! # Solid and non-watertight input
-//! *Solid* is the thin surface ∪ the interior by majority vote of exact
-//! crossing parity along x, y and z through voxel centres
-//! ([`solid_voxels_voting`]). For a watertight mesh every centre not on the
-//! surface is classified exactly. For a mesh with holes or self-overlaps the
-//! promise is weaker: the surface voxels are always present, and a voxel is
-//! misclassified only if at least two of its three axis lines pass through a
-//! hole (or an odd number of overlapping sheets), so the damage of a missing
-//! triangle stays within that triangle's shadow.
-//!
+//! *Solid* is the thin surface ∪ the voxel centres inside by the chosen
+//! [`InsideTest`]: by default the generalized winding number `w ≥ ½`, which
+//! degrades gracefully on holes, flipped faces, duplicated sheets and
+//! overlapping copies ([`solid_interior`]: exact signed crossings of the mesh
+//! closed by caps over its holes, plus the caps' winding number from a
+//! Barnes–Hut tree with rigorous error bounds, decided by regions); or exact
+//! crossing parity for watertight meshes. On a closed, consistently
+//! oriented mesh both are exact. Wholly inside bricks are tiles (one flag).
+
 //! # Determinism
 //! The resulting voxel set does not depend on the number of threads (the
 //! surface driver and the conservative fold are order-independent unions).
@@ -66,7 +66,7 @@ use crate::mesh::{Mesh, fit_frame, fitted_voxel};
 use crate::voxelize::conservative::{FixedTriangle, conservative_voxels};
 use crate::voxelize::slab::BrickList;
 use crate::voxelize::snapped::voxelize_snapped;
-use crate::voxelize::solid::solid_voxels_voting;
+use crate::voxelize::solid::{InsideTest, SolidStats, solid_interior};
 use crate::voxelize::surface::{
     SurfaceMode, SurfaceTriangle, VOXEL_FRAC_BITS, VOXEL_ONE, voxelize_surface_slabs,
 };
@@ -87,7 +87,8 @@ pub enum VoxelizeMode {
     Thick,
     /// Exactly the voxels whose closed cube meets the surface.
     Conservative,
-    /// Thin surface plus interior by 3-axis parity voting.
+    /// Thin surface plus the interior by the generalized winding number (or
+    /// parity, [`VoxelizeOptions::inside`]).
     Solid,
 }
 
@@ -131,6 +132,8 @@ pub struct VoxelizeOptions {
     /// Kahan–Kelsen indexing ([`crate::voxelize::snapped`]) instead of the
     /// crossing kernel. Same voxels; see the module docs for when it pays.
     pub kahan_kelsen: bool,
+    /// Solid mode's inside test.
+    pub inside: InsideTest,
     /// Cap on the estimated memory of the run.
     pub limit: MemoryLimit,
     /// Optional progress callback.
@@ -144,6 +147,7 @@ impl std::fmt::Debug for VoxelizeOptions {
             .field("mode", &self.mode)
             .field("snap", &self.snap)
             .field("kahan_kelsen", &self.kahan_kelsen)
+            .field("inside", &self.inside)
             .field("limit", &self.limit)
             .field("progress", &self.progress.is_some())
             .finish()
@@ -159,6 +163,7 @@ impl VoxelizeOptions {
             mode,
             snap: false,
             kahan_kelsen: false,
+            inside: InsideTest::default(),
             limit: MemoryLimit::DEFAULT,
             progress: None,
         }
@@ -189,6 +194,8 @@ pub struct VoxelizeStats {
     pub polyline_ms: f64,
     /// Whole run (everything above).
     pub total_ms: f64,
+    /// Solid mode: caps, crossings, refined bricks, ambiguous voxels.
+    pub solid: Option<SolidStats>,
 }
 
 /// The result of [`voxelize_mesh`].
@@ -372,8 +379,9 @@ pub const BYTES_PER_BRICK: u64 = 180;
 ///   more) and voxels as `k · area + 4 · perimeter-ish` with `k = √3` (thin),
 ///   3 (thick, conservative);
 /// * *conservative*: per-thread partial grids, counted twice;
-/// * *solid*: four dense bit grids (three axis parities and the vote),
-///   `4 · nx·ny·nz / 8`, plus the solid as bricks (`nx·ny·nz / 512`).
+/// * *solid*: the surface as for thin, as many partial interior bricks
+///   again, a tile flag per brick of the box (1 B, an upper bound), and the
+///   closed copy of the mesh plus the winding trees (~200 B per triangle).
 pub fn estimate_bytes(
     tris: &[SurfaceTriangle],
     segments: usize,
@@ -395,7 +403,7 @@ pub fn estimate_bytes(
         VoxelizeMode::Thin | VoxelizeMode::Thick => base + table + bricks * BYTES_PER_BRICK,
         VoxelizeMode::Conservative => base + 2 * bricks * BYTES_PER_BRICK,
         VoxelizeMode::Solid => {
-            base + table + bricks * BYTES_PER_BRICK + 4 * n.div_ceil(8) + n / 512 * BYTES_PER_BRICK
+            base + table + 2 * bricks * BYTES_PER_BRICK + n.div_ceil(512) + 200 * tris.len() as u64
         }
     }
 }
@@ -475,6 +483,7 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
 
     let dims_i = frame.dims.map(|d| d as i32);
     let t0 = Instant::now();
+    let mut solid_stats = None;
     let mut grid = match opts.mode {
         VoxelizeMode::Thin | VoxelizeMode::Thick => {
             report("surface");
@@ -493,9 +502,9 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
             report("surface");
             let mut g = bricks_to_grid(surface_bricks(triangles, dims_i, SurfaceMode::Thin, kk)?);
             report("solid");
-            let fixed: Vec<FixedTriangle> = triangles.par_iter().map(to_reference).collect();
-            let inside = solid_voxels_voting(&fixed, frame.dims, opts.limit)?;
-            g.union_with(&BrickGrid::from_bit_grid(&inside));
+            let (inside, s) = solid_interior(triangles, skipped, frame.dims, opts.inside, &g)?;
+            solid_stats = Some(s);
+            g.union_with(&inside);
             g
         }
     };
@@ -520,6 +529,7 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
         kernel_ms,
         polyline_ms,
         total_ms: ms(start.elapsed()),
+        solid: solid_stats,
     };
     Ok(Voxelization {
         grid,

@@ -1,5 +1,16 @@
-//! Solid (inside) references: which voxel centres lie inside a triangle mesh.
+//! Solid (inside) tests: which voxel centres lie inside a triangle mesh.
 //!
+//! * [`solid_interior`]: what `--mode solid` uses. With
+//!   [`InsideTest::Winding`] (the default) a centre is inside iff the
+//!   generalized winding number `w ≥ ½`, evaluated as an exact integer (the
+//!   signed crossing count of the mesh closed by caps over its holes,
+//!   [`crate::voxelize::caps`], [`crate::voxelize::fill`]) plus the caps'
+//!   own winding number from a Barnes–Hut tree with rigorous error bounds
+//!   ([`crate::voxelize::winding`]), decided by regions so that only boxes
+//!   near the holes go down to single voxels. With [`InsideTest::Parity`]:
+//!   exact crossing parity along x, for watertight meshes. Output in tiles.
+//!
+//! The references it is tested against:
 //! * [`winding_number`]: the generalized winding number, the sum of the signed
 //!   solid angles of the triangles (van Oosterom–Strackee) over 4π, in `f64`.
 //!   For a closed, outward-oriented mesh it is 1 inside and 0 outside; for a
@@ -7,11 +18,8 @@
 //!   `w ≥` [`WINDING_THRESHOLD`] (0.5). [`solid_voxels_winding`] applies it to
 //!   every centre (O(voxels × triangles): a reference for small grids).
 //! * [`solid_voxels_parity`]: exact crossing parity along axis-parallel lines
-//!   through voxel centres, for watertight meshes (orientation not needed).
-//! * [`solid_voxels_voting`]: parity along x, y and z, majority of three: for
-//!   non-watertight meshes. A hole only flips voxels whose lines pass through
-//!   it; a voxel goes wrong only if two of its three lines do, which confines
-//!   the damage of a missing triangle to that triangle's bounding box.
+//!   through voxel centres, into a dense bit grid (an independent
+//!   implementation of the parity rule).
 //!
 //! # Exact parity and its tie rule
 //! Vertices are fixed point ([`crate::fixed`]). For an x-line through the
@@ -34,8 +42,15 @@ use rayon::prelude::*;
 
 use crate::error::{Result, VoxkitError};
 use crate::fixed::{ONE, to_f64};
-use crate::grid::{BitGrid, Dims, MemoryLimit, Voxel};
+use crate::grid::brick::BrickMask;
+use crate::grid::{BitGrid, BrickGrid, Dims, MemoryLimit, Voxel};
+use crate::voxelize::caps::boundary_caps;
 use crate::voxelize::conservative::FixedTriangle;
+use crate::voxelize::fill::{
+    BrickRefiner, BrickRule, FillOutput, LineValue, NoRefiner, fill_interior,
+};
+use crate::voxelize::surface::{SurfaceTriangle, VOXEL_ONE};
+use crate::voxelize::winding::{Estimate, WindingTree};
 
 /// A centre is inside when its winding number is at least this.
 pub const WINDING_THRESHOLD: f64 = 0.5;
@@ -291,35 +306,375 @@ pub fn solid_voxels_parity(
     solid_voxels_parity_axis(mesh, dims, Axis::X, limit)
 }
 
-/// Solid voxels by majority vote of exact parity along x, y and z: robust to
-/// holes (a voxel is wrong only if two of its three axis lines pass through
-/// holes).
-///
-/// # Errors
-/// As [`solid_voxels_parity_axis`].
-pub fn solid_voxels_voting(
-    mesh: &[FixedTriangle],
-    dims: Dims,
-    limit: MemoryLimit,
-) -> Result<BitGrid> {
-    let gx = solid_voxels_parity_axis(mesh, dims, Axis::X, limit)?;
-    let gy = solid_voxels_parity_axis(mesh, dims, Axis::Y, limit)?;
-    let gz = solid_voxels_parity_axis(mesh, dims, Axis::Z, limit)?;
-    let mut out = BitGrid::new(dims, limit)?;
-    let (wx, wy, wz) = (gx.words(), gy.words(), gz.words());
-    for (wi, ((&a, &b), &c)) in wx.iter().zip(wy).zip(wz).enumerate() {
-        let mut m = (a & b) | (a & c) | (b & c);
-        while m != 0 {
-            let bit = m.trailing_zeros() as usize;
-            m &= m - 1;
-            out.set_index(wi * 64 + bit, true);
-        }
-    }
-    Ok(out)
-}
-
 /// The voxels of `solid` that are not in `surface`: inside seeds for
 /// [`crate::topology::tunnels::closed_surface_tunnels`].
 pub fn interior_seeds(solid: &BitGrid, surface: &BitGrid) -> Vec<Voxel> {
     solid.iter_ones().filter(|&v| !surface.get(v)).collect()
+}
+
+/// How solid mode decides which voxel centres are inside.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum)]
+pub enum InsideTest {
+    /// The generalized winding number, `w ≥ ½` (robust to holes, flipped
+    /// faces and overlaps): exact signed crossings of the mesh closed by caps
+    /// plus the caps' own winding number, evaluated hierarchically.
+    #[default]
+    Winding,
+    /// Crossing parity along x (exact; right for watertight meshes, whatever
+    /// their orientation). Fastest.
+    Parity,
+}
+
+impl InsideTest {
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            InsideTest::Winding => "winding",
+            InsideTest::Parity => "parity",
+        }
+    }
+}
+
+/// Counts of one interior fill.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SolidStats {
+    /// Cap triangles closing the mesh's boundary (0 for a closed mesh).
+    pub caps: usize,
+    /// Lattice-line crossings.
+    pub crossings: u64,
+    /// Bricks decided voxel by voxel (near holes).
+    pub refined_bricks: usize,
+    /// Bricks with another rule than "inside iff the crossing count ≥ 1".
+    pub rule_bricks: usize,
+    /// Voxel centres off the surface with `|w − ½| <` [`AMBIGUITY_BAND`]
+    /// (`w` as estimated for the decision, within its error bound).
+    pub ambiguous: u64,
+}
+
+/// Voxels whose winding number lies within this of ½ are counted as
+/// ambiguous ([`SolidStats::ambiguous`]): their verdict hangs on how the
+/// holes are bridged.
+pub const AMBIGUITY_BAND: f64 = 0.1;
+
+/// Error tolerance of the caps' far field for boxes and for points.
+const REGION_TOLERANCE: f64 = 0.02;
+
+/// The interior of a quantized mesh (triangles at [`VOXEL_ONE`] per voxel)
+/// inside `[0, dims)`: the voxel centres the chosen test puts inside, as
+/// tiles (whole bricks) and partial bricks. `degenerate` triangles take part
+/// in the mesh's boundary only. `surface` (the voxels the caller adds
+/// anyway) is used only to leave surface voxels out of the ambiguity count.
+///
+/// With [`InsideTest::Winding`], a centre `q` is inside iff `w(q) ≥ ½` for
+/// the generalized winding number `w = w_{S−S'} + w_{S'}`
+/// ([`crate::voxelize::caps`]): the first term exactly, as the signed
+/// crossing count of the closed chain ([`crate::voxelize::fill`]); the
+/// second from a Barnes–Hut tree with rigorous error bounds
+/// ([`crate::voxelize::winding`]), by regions: an octree over the grid stops
+/// at the first box whose bound puts `m + w_{S'}` on one side of ½ for every
+/// integer `m` (with [`AMBIGUITY_BAND`] to spare), so only boxes near the
+/// caps go down to voxels. On a closed, consistently oriented mesh there are
+/// no caps and the result is exact.
+///
+/// # Errors
+/// [`VoxkitError::Unsupported`] for a triangle spanning 2^20 voxels or more.
+///
+/// ```
+/// use glam::DVec3;
+/// use voxkit::grid::BrickGrid;
+/// use voxkit::voxelize::solid::{InsideTest, solid_interior};
+/// // A box [0.5, 3.5]³ at 1/256 voxel with one face missing: still a box.
+/// let m = voxkit::voxelize::shapes::IndexedMesh::cuboid(DVec3::splat(0.5), DVec3::splat(3.5)).without_face(0);
+/// let tris: Vec<_> = m.to_fixed_triangles().unwrap().iter()
+///     .map(|t| t.map(|p| p.map(|c| c >> 12))).collect();
+/// let (g, stats) = solid_interior(&tris, &[], [5, 5, 5], InsideTest::Winding, &BrickGrid::new()).unwrap();
+/// assert_eq!(g.count(), 27);
+/// assert!(stats.caps > 0);
+/// ```
+pub fn solid_interior(
+    triangles: &[SurfaceTriangle],
+    degenerate: &[SurfaceTriangle],
+    dims: Dims,
+    test: InsideTest,
+    surface: &BrickGrid,
+) -> Result<(BrickGrid, SolidStats)> {
+    for (i, t) in triangles.iter().enumerate() {
+        for a in 0..3 {
+            let mn = t.iter().map(|p| p[a]).min().unwrap_or(0);
+            let mx = t.iter().map(|p| p[a]).max().unwrap_or(0);
+            if mx - mn >= VOXEL_ONE << 20 {
+                return Err(VoxkitError::Unsupported(format!(
+                    "triangle {i} spans 2^20 voxels or more; the solid fill supports less"
+                )));
+            }
+        }
+    }
+    let mut stats = SolidStats::default();
+    let out = match test {
+        InsideTest::Parity => fill_interior(
+            triangles,
+            dims,
+            LineValue::Parity,
+            &[],
+            &NoRefiner,
+            surface,
+            0.0,
+        ),
+        InsideTest::Winding => {
+            let caps = boundary_caps(triangles, degenerate);
+            stats.caps = caps.len();
+            let closed: Vec<SurfaceTriangle> = triangles
+                .iter()
+                .copied()
+                .chain(caps.iter().map(|t| [t[0], t[2], t[1]]))
+                .collect();
+            if caps.is_empty() {
+                fill_interior(
+                    &closed,
+                    dims,
+                    LineValue::Winding,
+                    &[],
+                    &NoRefiner,
+                    surface,
+                    AMBIGUITY_BAND,
+                )
+            } else {
+                let ctx = Classifier {
+                    caps: WindingTree::new(&caps),
+                    mesh: WindingTree::new(triangles),
+                    dims,
+                    surface,
+                };
+                let mut rules = ctx.region_rules(Voxel::ZERO, top_size(dims));
+                rules.sort_unstable_by_key(|(k, _)| (k.z, k.y, k.x));
+                stats.rule_bricks = rules.len();
+                stats.refined_bricks = rules
+                    .iter()
+                    .filter(|(_, r)| *r == BrickRule::Refine)
+                    .count();
+                fill_interior(
+                    &closed,
+                    dims,
+                    LineValue::Winding,
+                    &rules,
+                    &ctx,
+                    surface,
+                    AMBIGUITY_BAND,
+                )
+            }
+        }
+    };
+    stats.crossings = out.crossings;
+    stats.ambiguous = out.ambiguous;
+    Ok((interior_grid(out), stats))
+}
+
+/// The fill's parts as a grid: whole bricks as tiles.
+fn interior_grid(out: FillOutput) -> BrickGrid {
+    BrickGrid::from_parts_tiled(out.keys, out.masks, out.tiles)
+}
+
+fn top_size(dims: Dims) -> i32 {
+    (dims.iter().copied().max().unwrap_or(1).max(8) as u32).next_power_of_two() as i32
+}
+
+/// Whether an estimate of `w_{S'}` decides `m + w ≥ ½` for every integer `m`
+/// over its whole interval: no `½ − m` lies in `[v − err, v + err]`.
+fn decided(e: Estimate) -> bool {
+    let lo = e.value - e.error - 0.5;
+    let r = lo.rem_euclid(1.0);
+    r > 0.0 && r + 2.0 * e.error < 1.0
+}
+
+fn centre_box(lo: Voxel, size: i32, dims: Dims) -> Option<(DVec3, DVec3)> {
+    let hi = (lo + Voxel::splat(size - 1)).min(Voxel::new(
+        dims[0] as i32 - 1,
+        dims[1] as i32 - 1,
+        dims[2] as i32 - 1,
+    ));
+    if hi.cmplt(lo).any() {
+        return None;
+    }
+    Some((lo.as_dvec3(), hi.as_dvec3()))
+}
+
+/// How a box's voxels get their winding number.
+#[derive(Clone, Copy)]
+enum WindingAt {
+    /// The voxel's line value plus this (`w_{S'}`).
+    Offset(f64),
+    /// This, for every voxel (the box is decided on `w_S` itself).
+    Whole(f64),
+}
+
+/// The octree over the grid that finds each brick's rule, and the refiner
+/// of the bricks it leaves undecided.
+struct Classifier<'a> {
+    /// The caps `S'`.
+    caps: WindingTree,
+    /// The mesh `S` itself: its winding number is continuous across the caps
+    /// (so boxes that meet a cap but not the mesh are decided on it), and it
+    /// decides centres lying exactly on a cap.
+    mesh: WindingTree,
+    dims: Dims,
+    surface: &'a BrickGrid,
+}
+
+impl Classifier<'_> {
+    /// `w_{S'}` at a voxel centre, or `None` on a cap.
+    fn cap_point(&self, q: DVec3) -> Option<f64> {
+        // Coarse first; exact only where the coarse bound straddles a threshold.
+        match self.caps.point(q, REGION_TOLERANCE) {
+            Some(e) if decided(e) => Some(e.value),
+            Some(_) => self.caps.point_exact(q).map(|e| e.value),
+            None => None,
+        }
+    }
+
+    /// The mesh's own winding number at a centre (1 on the mesh itself).
+    fn mesh_winding(&self, q: DVec3) -> f64 {
+        // On the mesh itself the voxel is a surface voxel: solid either way.
+        match self.mesh.point(q, REGION_TOLERANCE) {
+            Some(e) if (e.value - 0.5).abs() > e.error => e.value,
+            Some(_) => self.mesh.point_exact(q).map_or(1.0, |e| e.value),
+            None => 1.0,
+        }
+    }
+
+    /// Rules for the bricks of the cube `[lo, lo + size)` (size a power of
+    /// two, at least 8): nothing where the default holds, `Uniform` where
+    /// the caps' bound decides, `Refine` for the rest.
+    fn region_rules(&self, lo: Voxel, size: i32) -> Vec<(Voxel, BrickRule)> {
+        let Some((blo, bhi)) = centre_box(lo, size, self.dims) else {
+            return Vec::new();
+        };
+        match self.caps.bound(blo, bhi, REGION_TOLERANCE) {
+            Some(e) if decided(e) => {
+                if e.value.abs() < 0.5 - AMBIGUITY_BAND {
+                    return Vec::new();
+                }
+                let (b0, b1): (Voxel, Voxel) = (blo.as_ivec3() >> 3, bhi.as_ivec3() >> 3);
+                let mut out = Vec::new();
+                for bz in b0.z..=b1.z {
+                    for by in b0.y..=b1.y {
+                        for bx in b0.x..=b1.x {
+                            out.push((Voxel::new(bx, by, bz), BrickRule::Uniform(e.value)));
+                        }
+                    }
+                }
+                return out;
+            }
+            _ if size == 8 => return vec![(lo >> 3i32, BrickRule::Refine)],
+            _ => {}
+        }
+        let half = size / 2;
+        let children: Vec<Voxel> = (0..8)
+            .map(|c| lo + Voxel::new(c & 1, (c >> 1) & 1, c >> 2) * half)
+            .collect();
+        if size >= 64 {
+            children
+                .into_par_iter()
+                .flat_map_iter(|c| self.region_rules(c, half))
+                .collect()
+        } else {
+            children
+                .into_iter()
+                .flat_map(|c| self.region_rules(c, half))
+                .collect()
+        }
+    }
+
+    /// Decides the cube `[lo, lo + size)` of the brick at `brick_lo`.
+    #[allow(clippy::too_many_arguments)]
+    fn refine_cube(
+        &self,
+        brick_lo: Voxel,
+        lo: Voxel,
+        size: i32,
+        m: &[Option<i32>; 512],
+        mask: &mut BrickMask,
+        ambiguous: &mut u64,
+    ) {
+        let Some((blo, bhi)) = centre_box(lo, size, self.dims) else {
+            return;
+        };
+        let (a, b) = (blo.as_ivec3() - brick_lo, bhi.as_ivec3() - brick_lo);
+        let slots = move || {
+            (a.z..=b.z).flat_map(move |z| {
+                (a.y..=b.y)
+                    .flat_map(move |y| (a.x..=b.x).map(move |x| (x + 8 * y + 64 * z) as usize))
+            })
+        };
+        // `w` at each voxel: the line value plus an offset, or one value for all.
+        let mut apply = |w_of: WindingAt, mask: &mut BrickMask| {
+            for i in slots() {
+                let Some(mv) = m[i] else { continue };
+                let w = match w_of {
+                    WindingAt::Offset(o) => mv as f64 + o,
+                    WindingAt::Whole(w) => w,
+                };
+                if w >= 0.5 {
+                    mask[i / 64] |= 1 << (i % 64);
+                }
+                if (w - 0.5).abs() < AMBIGUITY_BAND {
+                    let v =
+                        brick_lo + Voxel::new((i % 8) as i32, (i / 8 % 8) as i32, (i / 64) as i32);
+                    if !self.surface.contains(v) {
+                        *ambiguous += 1;
+                    }
+                }
+            }
+        };
+        if size == 1 {
+            match self.cap_point(blo) {
+                Some(v) => apply(WindingAt::Offset(v), mask),
+                None => apply(WindingAt::Whole(self.mesh_winding(blo)), mask),
+            }
+            return;
+        }
+        match self.caps.bound(blo, bhi, REGION_TOLERANCE) {
+            Some(e) if decided(e) => return apply(WindingAt::Offset(e.value), mask),
+            Some(_) => {}
+            // A box meeting a cap but not the mesh: w is smooth in it, so one
+            // centre's w (line value + caps) and the rim's gradient bound it.
+            None if !self.mesh.meets_box(blo, bhi) => {
+                let grad = self.caps.gradient_bound(blo, bhi);
+                let diameter = (bhi - blo).length();
+                let probe = slots().find_map(|i| {
+                    let mv = m[i]?;
+                    let q = brick_lo.as_dvec3()
+                        + DVec3::new((i % 8) as f64, (i / 8 % 8) as f64, (i / 64) as f64);
+                    let e = self.caps.point(q, REGION_TOLERANCE)?;
+                    Some(Estimate {
+                        value: mv as f64 + e.value,
+                        error: e.error + diameter * grad,
+                    })
+                });
+                if let Some(w) = probe
+                    && (w.value - 0.5).abs() > w.error
+                {
+                    return apply(WindingAt::Whole(w.value), mask);
+                }
+            }
+            None => {}
+        }
+        let half = size / 2;
+        for c in 0..8 {
+            let child = lo + Voxel::new(c & 1, (c >> 1) & 1, c >> 2) * half;
+            self.refine_cube(brick_lo, child, half, m, mask, ambiguous);
+        }
+    }
+}
+
+impl BrickRefiner for Classifier<'_> {
+    fn refine(&self, key: Voxel, m: &[Option<i32>; 512]) -> (BrickMask, u64) {
+        let (mut mask, mut ambiguous) = ([0u64; 8], 0);
+        // The whole brick was undecided already (`region_rules`).
+        let lo = key * 8;
+        for c in 0..8 {
+            let child = lo + Voxel::new(c & 1, (c >> 1) & 1, c >> 2) * 4;
+            self.refine_cube(lo, child, 4, m, &mut mask, &mut ambiguous);
+        }
+        (mask, ambiguous)
+    }
 }

@@ -1,5 +1,7 @@
-//! Solid references: exact axis parity against the generalized winding
-//! number on generated closed meshes, and 3-axis voting on meshes with a hole.
+//! Solid mode's interior against independent references: the dense parity
+//! fill and the brute-force generalized winding number, on closed meshes and
+//! on damaged ones (holes, flipped faces, duplicated sheets, overlapping
+//! copies, open sheets).
 //!
 //! Exclusion criterion (the only place parity and winding number may
 //! disagree): voxel centres whose Euclidean distance to the closest triangle is
@@ -12,13 +14,17 @@ use glam::{DVec3, IVec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use voxkit::fixed::to_f64;
+use voxkit::grid::BrickGrid;
 use voxkit::grid::{BitGrid, MemoryLimit};
+use voxkit::mesh::Mesh;
 use voxkit::voxelize::conservative::FixedTriangle;
+use voxkit::voxelize::pipeline::{VoxelizeMode, VoxelizeOptions, to_reference, voxelize_mesh};
 use voxkit::voxelize::shapes::{IndexedMesh, random_rotation};
 use voxkit::voxelize::solid::{
-    Axis, WINDING_THRESHOLD, solid_voxels_parity, solid_voxels_parity_axis, solid_voxels_voting,
-    solid_voxels_winding, winding_number,
+    AMBIGUITY_BAND, Axis, InsideTest, WINDING_THRESHOLD, solid_interior, solid_voxels_parity,
+    solid_voxels_parity_axis, solid_voxels_winding, winding_number,
 };
+use voxkit::voxelize::surface::SurfaceTriangle;
 
 const NEAR: f64 = 1e-6;
 
@@ -158,50 +164,6 @@ fn winding_numbers_are_integers_off_the_surface() {
     assert_eq!(WINDING_THRESHOLD, 0.5);
 }
 
-/// Voting on a watertight mesh equals parity except at on-surface centres.
-#[test]
-fn voting_equals_parity_on_watertight_meshes() {
-    for (name, mesh) in closed_meshes() {
-        let vote = solid_voxels_voting(&mesh, DIMS, MemoryLimit::DEFAULT).unwrap();
-        let par = solid_voxels_parity(&mesh, DIMS, MemoryLimit::DEFAULT).unwrap();
-        for v in differing(&vote, &par) {
-            assert!(distance_to_mesh(v.as_dvec3(), &mesh) < NEAR, "{name}: {v}");
-        }
-    }
-}
-
-/// Removing one triangle: parity along x goes wrong along whole lines, but
-/// voting only errs where two of a voxel's three axis lines pass through the
-/// hole — inside the removed triangle's bounding box — or at on-surface centres.
-#[test]
-fn voting_is_robust_to_one_missing_triangle() {
-    let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let mut parity_damage = 0;
-    for (name, mesh) in closed_meshes() {
-        let full = solid_voxels_parity(&mesh, DIMS, MemoryLimit::DEFAULT).unwrap();
-        for _ in 0..4 {
-            let gone = rng.random_range(0..mesh.len());
-            let mut holed = mesh.clone();
-            let t = holed.remove(gone);
-            let [a, b, c] = f64_tri(&t);
-            let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
-            let vote = solid_voxels_voting(&holed, DIMS, MemoryLimit::DEFAULT).unwrap();
-            for v in differing(&vote, &full) {
-                let p = v.as_dvec3();
-                let in_box = p.cmpge(lo).all() && p.cmple(hi).all();
-                assert!(
-                    in_box || distance_to_mesh(p, &mesh) < NEAR,
-                    "{name}: removing triangle {gone} changed {v}, outside its box {lo}..{hi}"
-                );
-            }
-            let px = solid_voxels_parity(&holed, DIMS, MemoryLimit::DEFAULT).unwrap();
-            parity_damage += differing(&px, &full).len();
-        }
-    }
-    // Plain parity does suffer from the holes: voting is what saves it.
-    assert!(parity_damage > 100, "{parity_damage}");
-}
-
 /// Triangles beyond the grid, grids smaller than the mesh, and parallel vs
 /// single-threaded runs.
 #[test]
@@ -218,14 +180,234 @@ fn clipping_and_determinism() {
         .num_threads(1)
         .build()
         .unwrap()
-        .install(|| solid_voxels_voting(mesh, DIMS, MemoryLimit::DEFAULT).unwrap());
+        .install(|| solid_voxels_parity(mesh, DIMS, MemoryLimit::DEFAULT).unwrap());
     assert_eq!(
         single,
-        solid_voxels_voting(mesh, DIMS, MemoryLimit::DEFAULT).unwrap()
+        solid_voxels_parity(mesh, DIMS, MemoryLimit::DEFAULT).unwrap()
     );
     // A grid over the limit is refused before allocating.
     assert!(solid_voxels_parity(mesh, [1 << 12; 3], MemoryLimit::new(1 << 20)).is_err());
     // A triangle spanning 2^20 voxels is unsupported, not wrong.
     let huge = [[0, 0, 0], [1i64 << 41, 0, 0], [0, 1 << 20, 0]];
     assert!(solid_voxels_parity(&[huge], [4, 4, 4], MemoryLimit::DEFAULT).is_err());
+}
+
+/// A mesh at 1/256 voxel (what the voxelizer feeds [`solid_interior`]) and
+/// the same points at 2^-20 (what the references take).
+fn quantized(m: &IndexedMesh) -> (Vec<SurfaceTriangle>, Vec<FixedTriangle>) {
+    let q: Vec<[i64; 3]> = m
+        .vertices
+        .iter()
+        .map(|v| v.to_array().map(|c| (c * 256.0).round() as i64))
+        .collect();
+    let tris: Vec<SurfaceTriangle> = m
+        .faces
+        .iter()
+        .map(|f| f.map(|i| q[i as usize]))
+        .filter(|t| {
+            let e1 = [0, 1, 2].map(|a| t[1][a] - t[0][a]);
+            let e2 = [0, 1, 2].map(|a| t[2][a] - t[0][a]);
+            e1[1] * e2[2] != e1[2] * e2[1]
+                || e1[2] * e2[0] != e1[0] * e2[2]
+                || e1[0] * e2[1] != e1[1] * e2[0]
+        })
+        .collect();
+    let fixed = tris.iter().map(to_reference).collect();
+    (tris, fixed)
+}
+
+fn closed_indexed() -> Vec<(String, IndexedMesh)> {
+    let mut rng = ChaCha8Rng::seed_from_u64(29);
+    let mut out = Vec::new();
+    for k in 0..4 {
+        let rot = random_rotation([rng.random(), rng.random(), rng.random()]);
+        let off = DVec3::splat(11.0) + DVec3::new(rng.random(), rng.random(), rng.random());
+        let m = match k {
+            0 => IndexedMesh::uv_sphere(DVec3::ZERO, 8.7, 10, 16),
+            1 => IndexedMesh::torus(DVec3::ZERO, 7.5, 2.9, 22, 10),
+            2 => IndexedMesh::cuboid(DVec3::splat(-6.2), DVec3::new(5.1, 4.4, 6.9)),
+            _ => IndexedMesh::uv_sphere(DVec3::ZERO, 6.3, 7, 9),
+        };
+        out.push((format!("shape{k}"), m.transformed(rot, off)));
+    }
+    out.push((
+        "aligned box".into(),
+        IndexedMesh::cuboid(DVec3::splat(4.0), DVec3::new(15.0, 12.0, 18.0)),
+    ));
+    out
+}
+
+/// On closed meshes the interior (both tests) is exactly the dense parity
+/// reference, tie rule included; reversing every face makes the winding
+/// number −1 inside, so nothing is inside by `w ≥ ½` while parity does not
+/// care.
+#[test]
+fn interior_equals_parity_reference_on_closed_meshes() {
+    for (name, m) in closed_indexed() {
+        let (tris, fixed) = quantized(&m);
+        let want = solid_voxels_parity(&fixed, DIMS, MemoryLimit::DEFAULT).unwrap();
+        for test in [InsideTest::Winding, InsideTest::Parity] {
+            let (g, stats) = solid_interior(&tris, &[], DIMS, test, &BrickGrid::new()).unwrap();
+            let got = g.to_bit_grid(DIMS, MemoryLimit::DEFAULT).unwrap();
+            assert_eq!(
+                differing(&got, &want),
+                Vec::<IVec3>::new(),
+                "{name} {test:?}"
+            );
+            assert_eq!(stats.caps, 0, "{name}");
+        }
+        let flipped: Vec<SurfaceTriangle> = tris.iter().map(|t| [t[0], t[2], t[1]]).collect();
+        let (g, _) =
+            solid_interior(&flipped, &[], DIMS, InsideTest::Winding, &BrickGrid::new()).unwrap();
+        assert_eq!(g.count(), 0, "{name} flipped");
+        let (g, _) =
+            solid_interior(&flipped, &[], DIMS, InsideTest::Parity, &BrickGrid::new()).unwrap();
+        assert_eq!(g.count(), want.count_ones(), "{name} flipped parity");
+    }
+}
+
+/// Damaged copies of a closed mesh: faces removed, flipped or duplicated,
+/// two overlapping copies, an open sheet.
+fn damaged(m: &IndexedMesh, rng: &mut ChaCha8Rng) -> Vec<(String, IndexedMesh)> {
+    let mut out = Vec::new();
+    for pct in [1, 5, 20, 40] {
+        let mut d = m.clone();
+        d.faces.retain(|_| rng.random_range(0..100) >= pct);
+        out.push((format!("{pct}% removed"), d));
+    }
+    let mut d = m.clone();
+    for f in &mut d.faces {
+        if rng.random_range(0..10) == 0 {
+            *f = [f[0], f[2], f[1]];
+        }
+    }
+    out.push(("10% flipped".into(), d));
+    let mut d = m.clone();
+    let extra: Vec<[u32; 3]> = d
+        .faces
+        .iter()
+        .filter(|_| rng.random_range(0..10) == 0)
+        .copied()
+        .collect();
+    d.faces.extend(extra);
+    out.push(("10% duplicated".into(), d));
+    let mut d = m.clone();
+    let n = d.vertices.len() as u32;
+    d.vertices
+        .extend(m.vertices.iter().map(|v| *v + DVec3::new(2.3, 1.1, 0.7)));
+    d.faces.extend(m.faces.iter().map(|f| f.map(|i| i + n)));
+    out.push(("overlapping copy".into(), d));
+    let mut d = m.clone();
+    d.faces.truncate(d.faces.len() / 3);
+    out.push(("open sheet".into(), d));
+    out
+}
+
+/// Compares an interior with `w ≥ ½` (brute force) at every centre: a
+/// disagreement is allowed only within `NEAR` of the mesh (on the surface)
+/// or where `|w − ½| < 1e-9` (f64 sums of the same solid angles in another
+/// order). Returns the number of centres with `|w − ½| <` [`AMBIGUITY_BAND`].
+fn assert_matches_winding(
+    name: &str,
+    g: &BrickGrid,
+    fixed: &[FixedTriangle],
+    dims: [usize; 3],
+) -> u64 {
+    let mut ambiguous = 0;
+    for i in 0..dims.iter().product::<usize>() {
+        let v = centre(i, dims);
+        let p = v.as_dvec3();
+        let w = winding_number(p, fixed);
+        let on_surface = distance_to_mesh(p, fixed) < NEAR;
+        if !on_surface && (w - 0.5).abs() < AMBIGUITY_BAND {
+            ambiguous += 1;
+        }
+        if g.contains(v) != (w >= 0.5) && !on_surface {
+            assert!(
+                (w - 0.5).abs() < 1e-9,
+                "{name}: {v} w = {w}, solid says {}",
+                g.contains(v)
+            );
+        }
+    }
+    ambiguous
+}
+
+/// The generalized winding number decides, whatever the damage: the interior
+/// agrees with `w ≥ ½` at every centre off the surface.
+#[test]
+fn winding_interior_matches_brute_force_on_damaged_meshes() {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    for (base, m) in closed_indexed() {
+        for (damage, d) in damaged(&m, &mut rng) {
+            let name = format!("{base}, {damage}");
+            let (tris, fixed) = quantized(&d);
+            let (g, stats) =
+                solid_interior(&tris, &[], DIMS, InsideTest::Winding, &BrickGrid::new()).unwrap();
+            let ambiguous = assert_matches_winding(&name, &g, &fixed, DIMS);
+            // The ambiguity count comes from bounded estimates: it may miss
+            // or add voxels whose w is within the estimate's error of the band.
+            let slack = ambiguous / 5 + 10;
+            assert!(
+                stats.ambiguous.abs_diff(ambiguous) <= slack,
+                "{name}: ambiguous {} vs brute force {ambiguous}",
+                stats.ambiguous
+            );
+        }
+    }
+}
+
+/// A real mesh through the whole pipeline: Spot with a fifth of its faces
+/// removed, solid at `-r 24`, against the brute-force winding number of the
+/// voxelized (1/256-voxel) mesh off the thin surface.
+#[test]
+fn pipeline_solid_on_spot_with_holes_matches_brute_force() {
+    let spot = Mesh::load(std::path::Path::new("data/meshes/obj/spot.obj")).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(20);
+    let mut holed = spot.clone();
+    holed.triangles.retain(|_| rng.random_range(0..5) != 0);
+    let v = voxelize_mesh(&holed, &VoxelizeOptions::new(24, VoxelizeMode::Solid)).unwrap();
+    let fixed: Vec<FixedTriangle> = v.mesh.triangles.iter().map(to_reference).collect();
+    let dims = v.frame.dims;
+    let thin = voxelize_mesh(&holed, &VoxelizeOptions::new(24, VoxelizeMode::Thin)).unwrap();
+    for i in 0..dims.iter().product::<usize>() {
+        let c = centre(i, dims);
+        if thin.grid.contains(c) {
+            assert!(v.grid.contains(c), "surface voxel {c} missing");
+            continue;
+        }
+        let w = winding_number(c.as_dvec3(), &fixed);
+        if v.grid.contains(c) != (w >= 0.5) {
+            assert!((w - 0.5).abs() < 1e-9, "{c}: w = {w}");
+        }
+    }
+    assert!(v.stats.solid.is_some_and(|s| s.caps > 0));
+}
+
+/// Same interior on one thread and on many, and interior bricks are tiles.
+#[test]
+fn interior_is_deterministic_and_tiled() {
+    let m = IndexedMesh::uv_sphere(DVec3::splat(40.0), 37.0, 24, 40);
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let mut d = m.clone();
+    d.faces.retain(|_| rng.random_range(0..10) != 0);
+    let (tris, _) = quantized(&d);
+    let dims = [81, 81, 81];
+    let run = || solid_interior(&tris, &[], dims, InsideTest::Winding, &BrickGrid::new()).unwrap();
+    let (many, stats) = run();
+    let (one, _) = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(run);
+    assert_eq!(one, many);
+    assert!(stats.refined_bricks > 0 && stats.caps > 0);
+    assert!(many.tile_count() > 100, "{} tiles", many.tile_count());
+    // A ball of radius 37: about 4/3 π 37³ centres.
+    let ball = 4.0 / 3.0 * std::f64::consts::PI * 37f64.powi(3);
+    assert!(
+        (many.count() as f64 - ball).abs() < 0.02 * ball,
+        "{}",
+        many.count()
+    );
 }

@@ -1,0 +1,239 @@
+//! Caps over a mesh's boundary: the triangles that close its holes.
+//!
+//! Seen as a 2-chain (each triangle an oriented cell, vertices identified by
+//! position), a mesh `S` has a boundary `∂S`: the directed edges whose uses do
+//! not cancel (an edge used `a→b` by one triangle and `b→a` by another
+//! cancels). `∂S` is empty for a closed, consistently oriented mesh; holes,
+//! open seams, flipped faces (an edge used twice the same way counts twice)
+//! and T-junctions all leave edges in it.
+//!
+//! [`boundary_caps`] returns a chain `S'` with `∂S' = ∂S`: per connected
+//! component of the boundary, the fan of triangles `(P, a, b)` over its
+//! directed edges `a→b`, from one apex `P` (the component's vertex centroid).
+//! No loop extraction is needed: along any cycle the spokes `P→a` cancel, and
+//! a boundary is always a union of cycles. Then `S − S'` is closed, so
+//!
+//! `w_S(q) = w_{S−S'}(q) + w_{S'}(q)`
+//!
+//! for the generalized winding number `w` (it is additive over triangles):
+//! an exact integer (a signed crossing count) plus the winding number of the
+//! caps alone, which is small and smooth away from the holes. That split is
+//! what [`crate::voxelize::solid`] evaluates.
+
+use std::collections::HashMap;
+use std::hash::Hash;
+
+use crate::grid::brick::FxHasher;
+use crate::voxelize::surface::SurfaceTriangle;
+
+type FxBuild = std::hash::BuildHasherDefault<FxHasher>;
+
+/// The directed boundary edges of a triangle chain, each repeated by its
+/// multiplicity (an edge used twice `a→b` and never `b→a` appears twice).
+/// Vertices are compared by key (positions, for geometric boundaries).
+/// Sorted, so the result does not depend on hashing order.
+///
+/// ```
+/// use voxkit::voxelize::caps::boundary_edges;
+/// // Two triangles sharing the edge 1–2 (used 1→2 and 2→1): a square's rim.
+/// let e = boundary_edges([[0, 1, 2], [2, 1, 3]]);
+/// assert_eq!(e, vec![(0, 1), (1, 3), (2, 0), (3, 2)]);
+/// ```
+pub fn boundary_edges<K, I>(triangles: I) -> Vec<(K, K)>
+where
+    K: Copy + Ord + Hash,
+    I: IntoIterator<Item = [K; 3]>,
+{
+    let mut net: HashMap<(K, K), i64, FxBuild> = HashMap::default();
+    for t in triangles {
+        for i in 0..3 {
+            let (a, b) = (t[i], t[(i + 1) % 3]);
+            if a == b {
+                continue;
+            }
+            if a < b {
+                *net.entry((a, b)).or_insert(0) += 1;
+            } else {
+                *net.entry((b, a)).or_insert(0) -= 1;
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for ((a, b), m) in net {
+        let e = if m > 0 { (a, b) } else { (b, a) };
+        for _ in 0..m.unsigned_abs() {
+            out.push(e);
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+/// Groups boundary edges by connected component (edges sharing a vertex),
+/// in a deterministic order (by the smallest edge of each component).
+pub fn boundary_components<K: Copy + Ord + Hash>(edges: &[(K, K)]) -> Vec<Vec<(K, K)>> {
+    let mut id: HashMap<K, usize, FxBuild> = HashMap::default();
+    for &(a, b) in edges {
+        let n = id.len();
+        id.entry(a).or_insert(n);
+        let n = id.len();
+        id.entry(b).or_insert(n);
+    }
+    let mut parent: Vec<usize> = (0..id.len()).collect();
+    fn find(parent: &mut [usize], mut x: usize) -> usize {
+        while parent[x] != x {
+            parent[x] = parent[parent[x]];
+            x = parent[x];
+        }
+        x
+    }
+    for &(a, b) in edges {
+        let (ra, rb) = (find(&mut parent, id[&a]), find(&mut parent, id[&b]));
+        if ra != rb {
+            parent[ra.max(rb)] = ra.min(rb);
+        }
+    }
+    let mut slot: HashMap<usize, usize, FxBuild> = HashMap::default();
+    let mut out: Vec<Vec<(K, K)>> = Vec::new();
+    // `edges` is sorted by the caller's contract or not; components come out
+    // in the order of their first edge either way.
+    for &(a, b) in edges {
+        let r = find(&mut parent, id[&a]);
+        let s = *slot.entry(r).or_insert_with(|| {
+            out.push(Vec::new());
+            out.len() - 1
+        });
+        out[s].push((a, b));
+    }
+    out
+}
+
+/// Caps `S'` with `∂S' = ∂S` for fixed-point triangles (see the
+/// [module docs](self)): one fan per boundary component from its rounded
+/// vertex centroid, oriented like `S` (so `S − S'`, the mesh plus the
+/// reversed caps, is closed). `degenerate` triangles (zero area) take part in
+/// the boundary: they still pair their neighbours' edges. Caps of zero area
+/// are dropped (they add nothing to a winding number or a crossing count).
+/// Empty for a closed, consistently oriented mesh.
+///
+/// ```
+/// use voxkit::voxelize::caps::boundary_caps;
+/// // A unit square (two triangles, 1/256 fixed point) has one boundary loop:
+/// let (o, x, y, xy) = ([0, 0, 0], [256, 0, 0], [0, 256, 0], [256, 256, 0]);
+/// let caps = boundary_caps(&[[o, x, xy], [o, xy, y]], &[]);
+/// assert_eq!(caps.len(), 4); // a fan over its 4 rim edges from the centre
+/// assert!(caps.iter().all(|t| t[0] == [128, 128, 0]));
+/// ```
+pub fn boundary_caps(
+    triangles: &[SurfaceTriangle],
+    degenerate: &[SurfaceTriangle],
+) -> Vec<SurfaceTriangle> {
+    let edges = boundary_edges(triangles.iter().chain(degenerate).copied());
+    let mut caps = Vec::with_capacity(edges.len());
+    for component in boundary_components(&edges) {
+        let mut sum = [0i128; 3];
+        let mut n = 0i128;
+        for &(a, _) in &component {
+            for ax in 0..3 {
+                sum[ax] += a[ax] as i128;
+            }
+            n += 1;
+        }
+        // Round half away from zero: any apex gives valid caps.
+        let apex = sum.map(|s| ((2 * s + s.signum() * n) / (2 * n)) as i64);
+        for (a, b) in component {
+            let t = [apex, a, b];
+            if !zero_area(&t) {
+                caps.push(t);
+            }
+        }
+    }
+    caps
+}
+
+fn zero_area(t: &SurfaceTriangle) -> bool {
+    let e1 = [0, 1, 2].map(|a| (t[1][a] - t[0][a]) as i128);
+    let e2 = [0, 1, 2].map(|a| (t[2][a] - t[0][a]) as i128);
+    e1[1] * e2[2] == e1[2] * e2[1]
+        && e1[2] * e2[0] == e1[0] * e2[2]
+        && e1[0] * e2[1] == e1[1] * e2[0]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cube_faces() -> (Vec<[i64; 3]>, Vec<[usize; 3]>) {
+        let v: Vec<[i64; 3]> = (0..8)
+            .map(|i| [(i & 1) * 512, ((i >> 1) & 1) * 512, ((i >> 2) & 1) * 512])
+            .collect();
+        // Outward-oriented cube.
+        let f = vec![
+            [0, 2, 1],
+            [1, 2, 3],
+            [4, 5, 6],
+            [5, 7, 6],
+            [0, 1, 4],
+            [1, 5, 4],
+            [2, 6, 3],
+            [3, 6, 7],
+            [0, 4, 2],
+            [2, 4, 6],
+            [1, 3, 5],
+            [3, 7, 5],
+        ];
+        (v, f)
+    }
+
+    fn tris(v: &[[i64; 3]], f: &[[usize; 3]]) -> Vec<SurfaceTriangle> {
+        f.iter().map(|t| t.map(|i| v[i])).collect()
+    }
+
+    #[test]
+    fn closed_mesh_has_no_caps() {
+        let (v, f) = cube_faces();
+        assert!(boundary_caps(&tris(&v, &f), &[]).is_empty());
+    }
+
+    #[test]
+    fn mesh_minus_caps_is_closed() {
+        let (v, f) = cube_faces();
+        for drop in [vec![0], vec![0, 1], vec![0, 5, 9], vec![2, 3, 4, 5]] {
+            let kept: Vec<_> = f
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| !drop.contains(i))
+                .map(|(_, t)| *t)
+                .collect();
+            let s = tris(&v, &kept);
+            let caps = boundary_caps(&s, &[]);
+            assert!(!caps.is_empty());
+            let reversed = caps.iter().map(|t| [t[0], t[2], t[1]]);
+            let closed: Vec<SurfaceTriangle> = s.iter().copied().chain(reversed).collect();
+            assert!(
+                boundary_edges(closed.iter().copied()).is_empty(),
+                "{drop:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn flipped_face_counts_its_edges_twice() {
+        let (v, mut f) = cube_faces();
+        f[0] = [f[0][0], f[0][2], f[0][1]];
+        let e = boundary_edges(tris(&v, &f).iter().copied());
+        assert_eq!(e.len(), 6); // three edges, each twice
+        let caps = boundary_caps(&tris(&v, &f), &[]);
+        let reversed = caps.iter().map(|t| [t[0], t[2], t[1]]);
+        let closed: Vec<SurfaceTriangle> = tris(&v, &f).into_iter().chain(reversed).collect();
+        assert!(boundary_edges(closed.iter().copied()).is_empty());
+    }
+
+    #[test]
+    fn components_are_separate() {
+        let e = [(0, 1), (1, 2), (2, 0), (5, 6), (6, 5)];
+        let c = boundary_components(&e);
+        assert_eq!(c.len(), 2);
+        assert_eq!(c[0].len(), 3);
+    }
+}

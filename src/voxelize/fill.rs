@@ -1,0 +1,477 @@
+//! The interior fill: signed crossings along x-lattice lines, one layer of
+//! 8³ bricks at a time, written as whole-brick tiles and partial masks.
+//!
+//! For the x-line through `(y, z) = (j, k)` every triangle whose projection
+//! onto the `(y, z)` plane contains the point `(j, k) + (ε, ε²)` (ε → 0⁺;
+//! symbolic perturbation, decided by exact integer edge functions: a line
+//! through a shared edge or vertex meets exactly one of the triangles around
+//! it) is crossed at the exact rational depth `x*`. The crossing counts for
+//! the centres `i ≥ x*` (a centre exactly on the surface takes the side
+//! beyond), with weight `−sign(n_x)`. So the running sum along the line is
+//! the winding number of a closed chain exactly: `1` inside a closed
+//! outward-oriented mesh, `0` outside, `2` inside two overlapping copies.
+//! With [`LineValue::Parity`] the running value is the crossing count mod 2.
+//!
+//! Per layer the crossings of all triangles meeting it are sorted by
+//! `(y, z, x)`; each run of a line with value ≥ 1 sets one byte per brick it
+//! covers (a brick row is one byte of its mask); bricks that come out full
+//! are tiles. Bricks whose threshold is not the default (near the holes of a
+//! mesh, see [`crate::voxelize::solid`]) are recomputed voxel by voxel from
+//! the same runs. Memory: the crossings of one layer per thread, plus the
+//! output.
+
+use glam::IVec3;
+use rayon::prelude::*;
+
+use crate::grid::brick::BrickMask;
+use crate::grid::{BrickGrid, Voxel};
+use crate::voxelize::surface::{SurfaceTriangle, VOXEL_ONE};
+
+/// What a line's running value is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LineValue {
+    /// Signed crossing count (the winding number of a closed chain).
+    Winding,
+    /// Crossing count mod 2 (orientation ignored).
+    Parity,
+}
+
+/// How a brick decides inside from the line value `m` at a voxel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BrickRule {
+    /// Inside iff `m + offset ≥ ½` for every voxel of the brick (`±∞`: all
+    /// inside or all outside).
+    Uniform(f64),
+    /// Decided voxel by voxel by a [`BrickRefiner`] that sees the line values.
+    Refine,
+}
+
+/// Decides a brick from its voxels' line values (`m[lx + 8 ly + 64 lz]`,
+/// `None` outside the grid): returns the inside mask and the number of
+/// ambiguous voxels found.
+pub trait BrickRefiner: Sync {
+    /// The brick `key`'s mask.
+    fn refine(&self, key: Voxel, m: &[Option<i32>; 512]) -> (BrickMask, u64);
+}
+
+/// A refiner for fills without [`BrickRule::Refine`] bricks.
+pub struct NoRefiner;
+
+impl BrickRefiner for NoRefiner {
+    fn refine(&self, _: Voxel, _: &[Option<i32>; 512]) -> (BrickMask, u64) {
+        ([0; 8], 0)
+    }
+}
+
+/// Interior voxels and counts of one fill.
+#[derive(Debug, Default)]
+pub struct FillOutput {
+    /// Partial bricks (brick coordinates, masks).
+    pub keys: Vec<Voxel>,
+    /// Their masks.
+    pub masks: Vec<BrickMask>,
+    /// Whole bricks.
+    pub tiles: Vec<Voxel>,
+    /// Crossings found.
+    pub crossings: u64,
+    /// Voxels (in per-voxel bricks, not on `surface`) with `|w − ½| < band`.
+    pub ambiguous: u64,
+}
+
+/// Fills the interior of the closed chain `triangles` inside `[0, dims)`.
+/// `rules` (sorted by brick key `(bz, by, bx)`, bricks in the grid) override
+/// the default rule `m ≥ 1` (Winding) or `m odd` (Parity); `refiner` decides
+/// the [`BrickRule::Refine`] bricks. `Uniform` bricks count voxels off
+/// `surface` with `|m + offset − ½| < band` as ambiguous.
+#[allow(clippy::too_many_arguments)]
+pub fn fill_interior(
+    triangles: &[SurfaceTriangle],
+    dims: [usize; 3],
+    value: LineValue,
+    rules: &[(Voxel, BrickRule)],
+    refiner: &dyn BrickRefiner,
+    surface: &BrickGrid,
+    band: f64,
+) -> FillOutput {
+    let layers = dims[2].div_ceil(8);
+    // Triangles by the brick layers their z-range meets.
+    let mut buckets: Vec<Vec<u32>> = vec![Vec::new(); layers];
+    for (i, t) in triangles.iter().enumerate() {
+        let zmin = t.iter().map(|p| p[2]).min().unwrap_or(0);
+        let zmax = t.iter().map(|p| p[2]).max().unwrap_or(0);
+        let k0 = ceil_div(zmin, VOXEL_ONE).max(0);
+        let k1 = zmax.div_euclid(VOXEL_ONE).min(dims[2] as i64 - 1);
+        if k0 > k1 {
+            continue;
+        }
+        for b in (k0 / 8)..=(k1 / 8) {
+            buckets[b as usize].push(i as u32);
+        }
+    }
+    let parts: Vec<FillOutput> = (0..layers)
+        .into_par_iter()
+        .map_init(Vec::new, |scratch, bz| {
+            let lo = rules.partition_point(|(k, _)| k.z < bz as i32);
+            let hi = rules.partition_point(|(k, _)| k.z <= bz as i32);
+            fill_layer(
+                triangles,
+                &buckets[bz],
+                bz,
+                dims,
+                value,
+                &rules[lo..hi],
+                refiner,
+                surface,
+                band,
+                scratch,
+            )
+        })
+        .collect();
+    let mut out = FillOutput::default();
+    for p in parts {
+        out.keys.extend(p.keys);
+        out.masks.extend(p.masks);
+        out.tiles.extend(p.tiles);
+        out.crossings += p.crossings;
+        out.ambiguous += p.ambiguous;
+    }
+    out
+}
+
+#[inline]
+fn ceil_div(a: i64, b: i64) -> i64 {
+    -((-a).div_euclid(b))
+}
+
+/// A crossing: key `line << 32 | f` (line = `8 y + (z mod 8)`, `f` the first
+/// centre at or beyond it), weight.
+type Crossing = (u64, i32);
+
+#[allow(clippy::too_many_arguments)]
+fn fill_layer(
+    triangles: &[SurfaceTriangle],
+    members: &[u32],
+    bz: usize,
+    dims: [usize; 3],
+    value: LineValue,
+    rules: &[(Voxel, BrickRule)],
+    refiner: &dyn BrickRefiner,
+    surface: &BrickGrid,
+    band: f64,
+    crossings: &mut Vec<Crossing>,
+) -> FillOutput {
+    crossings.clear();
+    let z0 = bz as i64 * 8;
+    let z1 = (z0 + 8).min(dims[2] as i64);
+    for &t in members {
+        layer_crossings(&triangles[t as usize], z0, z1, dims, value, crossings);
+    }
+    crossings.sort_unstable_by_key(|c| c.0);
+    let mut out = FillOutput {
+        crossings: crossings.len() as u64,
+        ..FillOutput::default()
+    };
+    let nbx = dims[0].div_ceil(8);
+    let nby = dims[1].div_ceil(8);
+    let mut masks = vec![[0u64; 8]; nbx];
+    let mut at = 0usize; // next crossing
+    let mut rule_at = 0usize;
+    for by in 0..nby {
+        let first_line = (by * 64) as u64;
+        // Skip bundles with neither crossings nor rules.
+        let c_start = at;
+        while at < crossings.len() && (crossings[at].0 >> 32) < first_line + 64 {
+            at += 1;
+        }
+        let r_start = rule_at;
+        while rule_at < rules.len() && rules[rule_at].0.y as usize == by {
+            rule_at += 1;
+        }
+        let bundle = &crossings[c_start..at];
+        let bundle_rules = &rules[r_start..rule_at];
+        if bundle.is_empty() && bundle_rules.is_empty() {
+            continue;
+        }
+        // Crossing ranges of the bundle's 64 lines.
+        let mut ranges = [(0usize, 0usize); 64];
+        let mut i = 0;
+        while i < bundle.len() {
+            let line = ((bundle[i].0 >> 32) - first_line) as usize;
+            let s = i;
+            while i < bundle.len() && ((bundle[i].0 >> 32) - first_line) as usize == line {
+                i += 1;
+            }
+            ranges[line] = (s, i);
+        }
+        let (mut touched_lo, mut touched_hi) = (nbx, 0usize);
+        for (line, &(s, e)) in ranges.iter().enumerate() {
+            if s == e {
+                continue;
+            }
+            let (ly, lz) = (line / 8, line % 8);
+            for_runs(&bundle[s..e], value, dims[0], |x0, x1, m| {
+                if inside_default(value, m) {
+                    set_run(&mut masks, ly, lz, x0, x1);
+                    touched_lo = touched_lo.min(x0 / 8);
+                    touched_hi = touched_hi.max(x1.div_ceil(8));
+                }
+            });
+        }
+        for (key, rule) in bundle_rules {
+            let bx = key.x as usize;
+            let m = line_values(bundle, &ranges, *key, dims, value);
+            masks[bx] = match rule {
+                BrickRule::Refine => {
+                    let (mask, ambiguous) = refiner.refine(*key, &m);
+                    out.ambiguous += ambiguous;
+                    mask
+                }
+                BrickRule::Uniform(offset) => {
+                    uniform_mask(*key, &m, *offset, surface, band, &mut out.ambiguous)
+                }
+            };
+            touched_lo = touched_lo.min(bx);
+            touched_hi = touched_hi.max(bx + 1);
+        }
+        for (bx, m) in masks
+            .iter_mut()
+            .enumerate()
+            .take(touched_hi)
+            .skip(touched_lo)
+        {
+            let key = IVec3::new(bx as i32, by as i32, bz as i32);
+            if m.iter().all(|&w| w == u64::MAX) {
+                out.tiles.push(key);
+            } else if m.iter().any(|&w| w != 0) {
+                out.keys.push(key);
+                out.masks.push(*m);
+            }
+            *m = [0; 8];
+        }
+    }
+    out
+}
+
+#[inline]
+fn inside_default(value: LineValue, m: i32) -> bool {
+    match value {
+        LineValue::Winding => m >= 1,
+        LineValue::Parity => m & 1 == 1,
+    }
+}
+
+/// Calls `f(x0, x1, m)` for each maximal run `[x0, x1)` (clipped to
+/// `[0, nx)`, non-empty) of constant line value `m`, given the line's sorted
+/// crossings.
+#[inline]
+fn for_runs(line: &[Crossing], value: LineValue, nx: usize, mut f: impl FnMut(usize, usize, i32)) {
+    let mut m = 0i32;
+    let mut x = 0usize;
+    let mut i = 0;
+    while i < line.len() {
+        let fx = (line[i].0 & 0xffff_ffff) as usize;
+        if fx > x {
+            f(x, fx.min(nx), m);
+            x = fx;
+        }
+        while i < line.len() && (line[i].0 & 0xffff_ffff) as usize == fx {
+            m = match value {
+                LineValue::Winding => m + line[i].1,
+                LineValue::Parity => m ^ 1,
+            };
+            i += 1;
+        }
+    }
+    if x < nx {
+        f(x, nx, m);
+    }
+}
+
+/// Sets bits `[x0, x1)` of row `(ly, lz)` across the bundle's bricks.
+#[inline]
+fn set_run(masks: &mut [BrickMask], ly: usize, lz: usize, x0: usize, x1: usize) {
+    if x0 >= x1 {
+        return;
+    }
+    let shift = 8 * ly;
+    let (b0, b1) = (x0 / 8, (x1 - 1) / 8);
+    let lo_bits = 0xffu64 << (x0 % 8) & 0xff;
+    let hi_bits = 0xffu64 >> (7 - (x1 - 1) % 8);
+    if b0 == b1 {
+        masks[b0][lz] |= (lo_bits & hi_bits) << shift;
+        return;
+    }
+    masks[b0][lz] |= lo_bits << shift;
+    for m in &mut masks[b0 + 1..b1] {
+        m[lz] |= 0xff << shift;
+    }
+    masks[b1][lz] |= hi_bits << shift;
+}
+
+/// The line values of a brick's voxels (`None` outside the grid).
+fn line_values(
+    bundle: &[Crossing],
+    ranges: &[(usize, usize); 64],
+    key: Voxel,
+    dims: [usize; 3],
+    value: LineValue,
+) -> [Option<i32>; 512] {
+    let mut out = [None; 512];
+    let x_lo = key.x as usize * 8;
+    let x_hi = (x_lo + 8).min(dims[0]);
+    for (line, &(s, e)) in ranges.iter().enumerate() {
+        let (ly, lz) = (line / 8, line % 8);
+        let (y, z) = (key.y as usize * 8 + ly, key.z as usize * 8 + lz);
+        if y >= dims[1] || z >= dims[2] {
+            continue;
+        }
+        for_runs(&bundle[s..e], value, dims[0], |x0, x1, m| {
+            for x in x0.max(x_lo)..x1.min(x_hi) {
+                out[x - x_lo + 8 * ly + 64 * lz] = Some(m);
+            }
+        });
+    }
+    out
+}
+
+/// The mask of a brick with a uniform offset.
+fn uniform_mask(
+    key: Voxel,
+    m: &[Option<i32>; 512],
+    offset: f64,
+    surface: &BrickGrid,
+    band: f64,
+    ambiguous: &mut u64,
+) -> BrickMask {
+    let mut mask = [0u64; 8];
+    for (i, m) in m.iter().enumerate() {
+        let Some(m) = *m else { continue };
+        let w = m as f64 + offset;
+        if w >= 0.5 {
+            mask[i / 64] |= 1 << (i % 64);
+        }
+        if (w - 0.5).abs() < band {
+            let v = key * 8 + IVec3::new((i % 8) as i32, (i / 8 % 8) as i32, (i / 64) as i32);
+            if !surface.contains(v) {
+                *ambiguous += 1;
+            }
+        }
+    }
+    mask
+}
+
+/// Crossings of triangle `t` with the x-lines of rows `z ∈ [z0, z1)`.
+fn layer_crossings(
+    t: &SurfaceTriangle,
+    z0: i64,
+    z1: i64,
+    dims: [usize; 3],
+    value: LineValue,
+    out: &mut Vec<Crossing>,
+) {
+    const ONE: i64 = VOXEL_ONE;
+    let p = t.map(|v| [v[1], v[2]]);
+    let d = t.map(|v| v[0]);
+    let cross = |a: [i64; 2], b: [i64; 2], q: [i64; 2]| {
+        (b[0] - a[0]) as i128 * (q[1] - a[1]) as i128
+            - (b[1] - a[1]) as i128 * (q[0] - a[0]) as i128
+    };
+    let area = cross(p[0], p[1], p[2]);
+    if area == 0 {
+        return;
+    }
+    let s: i64 = if area > 0 { 1 } else { -1 };
+    let weight = match value {
+        LineValue::Winding => -s as i32,
+        LineValue::Parity => 1,
+    };
+    let umin = p.iter().map(|q| q[0]).min().unwrap_or(0);
+    let umax = p.iter().map(|q| q[0]).max().unwrap_or(0);
+    let wmin = p.iter().map(|q| q[1]).min().unwrap_or(0);
+    let wmax = p.iter().map(|q| q[1]).max().unwrap_or(0);
+    let j_lo = ceil_div(umin, ONE).max(0);
+    let j_hi = umax.div_euclid(ONE).min(dims[1] as i64 - 1);
+    let k_lo = ceil_div(wmin, ONE).max(z0);
+    let k_hi = wmax.div_euclid(ONE).min(z1 - 1);
+    if j_lo > j_hi || k_lo > k_hi {
+        return;
+    }
+    // Edge i: e(q) = s·((b−a) × (q−a)) > 0, or = 0 with a positive tie sign
+    // (the ε-perturbed point's side): e + bias > 0 with bias ∈ {0, 1}.
+    let mut edges = [(0i64, 0i64, [0i64; 2], 0i64); 3];
+    for (i, edge) in edges.iter_mut().enumerate() {
+        let (a, b) = (p[i], p[(i + 1) % 3]);
+        let (du, dw) = (b[0] - a[0], b[1] - a[1]);
+        let tie = if dw != 0 { -dw.signum() } else { du.signum() };
+        *edge = (du, dw, a, i64::from(s * tie > 0));
+    }
+    // Depth numerator N(j, k) = x*·area = d0·area + l1 (d1−d0) + l2 (d2−d0),
+    // l1 = cross(p2, p0, q), l2 = cross(p0, p1, q): linear in j.
+    let (dd1, dd2) = ((d[1] - d[0]) as i128, (d[2] - d[0]) as i128);
+    let (sa, den) = if area > 0 {
+        (1i128, area * ONE as i128)
+    } else {
+        (-1i128, -area * ONE as i128)
+    };
+    let den_f = den as f64;
+    for k in k_lo..=k_hi {
+        let qw = k * ONE;
+        // j-interval where all three edge conditions hold.
+        let (mut lo, mut hi) = (j_lo, j_hi);
+        for &(du, dw, a, bias) in &edges {
+            // e(j) = s·(du·(qw − aw) − dw·(j·ONE − au)) = A·j + B
+            let a_coef = -s as i128 * dw as i128 * ONE as i128;
+            let b_coef = s as i128 * (du as i128 * (qw - a[1]) as i128 + dw as i128 * a[0] as i128);
+            let c = b_coef + bias as i128;
+            if a_coef > 0 {
+                lo = lo.max(((-c).div_euclid(a_coef) + 1) as i64);
+            } else if a_coef < 0 {
+                hi = hi.min((-((-c).div_euclid(-a_coef)) - 1) as i64);
+            } else if c <= 0 {
+                hi = lo - 1;
+            }
+        }
+        if lo > hi {
+            continue;
+        }
+        let line_base = ((k - z0) as u64) & 7;
+        for j in lo..=hi {
+            let q = [j * ONE, qw];
+            let n = d[0] as i128 * area + cross(p[2], p[0], q) * dd1 + cross(p[0], p[1], q) * dd2;
+            let n = sa * n;
+            // First centre i with i·ONE·area ≥ N: ceil(N / den).
+            let qf = n as f64 / den_f;
+            let c = qf.ceil();
+            let f = if c - qf > 1e-6 && qf - (c - 1.0) > 1e-6 {
+                c as i64
+            } else {
+                -((-n).div_euclid(den)) as i64
+            };
+            if f >= dims[0] as i64 {
+                continue;
+            }
+            let line = (j as u64) * 8 + line_base;
+            out.push((line << 32 | f.max(0) as u64, weight));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn runs_set_the_right_bits() {
+        let mut masks = vec![[0u64; 8]; 3];
+        set_run(&mut masks, 2, 5, 3, 19);
+        let bits: Vec<usize> = (0..24)
+            .filter(|&x| masks[x / 8][5] >> (16 + x % 8) & 1 == 1)
+            .collect();
+        assert_eq!(bits, (3..19).collect::<Vec<_>>());
+        assert!(
+            masks
+                .iter()
+                .all(|m| m.iter().enumerate().all(|(z, w)| z == 5 || *w == 0))
+        );
+    }
+}
