@@ -227,6 +227,8 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
         obj.insert("crossings".into(), solid.crossings.into());
         obj.insert("refined_bricks".into(), solid.refined_bricks.into());
         obj.insert("winding_ambiguous".into(), solid.ambiguous.into());
+        obj.insert("winding_point_queries".into(), solid.point_queries.into());
+        obj.insert("winding_box_queries".into(), solid.box_queries.into());
     }
     if let Some((m, measure_ms)) = measured {
         let m = m?;

@@ -414,19 +414,23 @@ fn layer_crossings(
         (-1i128, -area * ONE as i128)
     };
     let den_f = den as f64;
+    // ∂N/∂j: cross(a, b, q) changes by −(b_w − a_w)·ONE per column.
+    let dn = sa
+        * ONE as i128
+        * (-((p[0][1] - p[2][1]) as i128) * dd1 - ((p[1][1] - p[0][1]) as i128) * dd2);
     for k in k_lo..=k_hi {
         let qw = k * ONE;
-        // j-interval where all three edge conditions hold.
+        // j-interval where all three edge conditions hold. Everything fits
+        // i64: coordinates are below 2^30 fixed units (2^22 voxels).
         let (mut lo, mut hi) = (j_lo, j_hi);
         for &(du, dw, a, bias) in &edges {
             // e(j) = s·(du·(qw − aw) − dw·(j·ONE − au)) = A·j + B
-            let a_coef = -s as i128 * dw as i128 * ONE as i128;
-            let b_coef = s as i128 * (du as i128 * (qw - a[1]) as i128 + dw as i128 * a[0] as i128);
-            let c = b_coef + bias as i128;
+            let a_coef = -s * dw * ONE;
+            let c = s * (du * (qw - a[1]) + dw * a[0]) + bias;
             if a_coef > 0 {
-                lo = lo.max(((-c).div_euclid(a_coef) + 1) as i64);
+                lo = lo.max((-c).div_euclid(a_coef) + 1);
             } else if a_coef < 0 {
-                hi = hi.min((-((-c).div_euclid(-a_coef)) - 1) as i64);
+                hi = hi.min(-((-c).div_euclid(-a_coef)) - 1);
             } else if c <= 0 {
                 hi = lo - 1;
             }
@@ -435,18 +439,20 @@ fn layer_crossings(
             continue;
         }
         let line_base = ((k - z0) as u64) & 7;
+        let q = [lo * ONE, qw];
+        let mut n =
+            sa * (d[0] as i128 * area + cross(p[2], p[0], q) * dd1 + cross(p[0], p[1], q) * dd2);
         for j in lo..=hi {
-            let q = [j * ONE, qw];
-            let n = d[0] as i128 * area + cross(p[2], p[0], q) * dd1 + cross(p[0], p[1], q) * dd2;
-            let n = sa * n;
-            // First centre i with i·ONE·area ≥ N: ceil(N / den).
-            let qf = n as f64 / den_f;
-            let c = qf.ceil();
-            let f = if c - qf > 1e-6 && qf - (c - 1.0) > 1e-6 {
-                c as i64
-            } else {
-                -((-n).div_euclid(den)) as i64
-            };
+            // First centre i with i·den ≥ N: ceil(N / den), estimated in f64
+            // and corrected exactly.
+            let mut f = (n as f64 / den_f).ceil() as i64;
+            while (f as i128) * den < n {
+                f += 1;
+            }
+            while ((f - 1) as i128) * den >= n {
+                f -= 1;
+            }
+            n += dn;
             if f >= dims[0] as i64 {
                 continue;
             }

@@ -37,6 +37,8 @@
 //! (i128 throughout); larger triangles are rejected with
 //! [`VoxkitError::Unsupported`].
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -346,6 +348,10 @@ pub struct SolidStats {
     pub refined_bricks: usize,
     /// Bricks with another rule than "inside iff the crossing count ≥ 1".
     pub rule_bricks: usize,
+    /// Winding-number evaluations at single points (caps or mesh).
+    pub point_queries: u64,
+    /// Winding-number bounds over boxes.
+    pub box_queries: u64,
     /// Voxel centres off the surface with `|w − ½| <` [`AMBIGUITY_BAND`]
     /// (`w` as estimated for the decision, within its error bound).
     pub ambiguous: u64,
@@ -444,6 +450,8 @@ pub fn solid_interior(
                     mesh: WindingTree::new(triangles),
                     dims,
                     surface,
+                    points: AtomicU64::new(0),
+                    boxes: AtomicU64::new(0),
                 };
                 let mut rules = ctx.region_rules(Voxel::ZERO, top_size(dims));
                 rules.sort_unstable_by_key(|(k, _)| (k.z, k.y, k.x));
@@ -452,7 +460,7 @@ pub fn solid_interior(
                     .iter()
                     .filter(|(_, r)| *r == BrickRule::Refine)
                     .count();
-                fill_interior(
+                let out = fill_interior(
                     &closed,
                     dims,
                     LineValue::Winding,
@@ -460,7 +468,10 @@ pub fn solid_interior(
                     &ctx,
                     surface,
                     AMBIGUITY_BAND,
-                )
+                );
+                stats.point_queries = ctx.points.load(Ordering::Relaxed);
+                stats.box_queries = ctx.boxes.load(Ordering::Relaxed);
+                out
             }
         }
     };
@@ -498,6 +509,16 @@ fn centre_box(lo: Voxel, size: i32, dims: Dims) -> Option<(DVec3, DVec3)> {
     Some((lo.as_dvec3(), hi.as_dvec3()))
 }
 
+/// Which surface a box of centres does not meet (so that a part of `w` is
+/// smooth in it).
+#[derive(Clone, Copy)]
+enum Across {
+    /// No mesh triangle: `w` itself is smooth.
+    Mesh,
+    /// No cap: `w_{S'}` is smooth.
+    Caps,
+}
+
 /// How a box's voxels get their winding number.
 #[derive(Clone, Copy)]
 enum WindingAt {
@@ -518,17 +539,27 @@ struct Classifier<'a> {
     mesh: WindingTree,
     dims: Dims,
     surface: &'a BrickGrid,
+    points: AtomicU64,
+    boxes: AtomicU64,
 }
 
 impl Classifier<'_> {
     /// `w_{S'}` at a voxel centre, or `None` on a cap.
     fn cap_point(&self, q: DVec3) -> Option<f64> {
-        // Coarse first; exact only where the coarse bound straddles a threshold.
-        match self.caps.point(q, REGION_TOLERANCE) {
-            Some(e) if decided(e) => Some(e.value),
-            Some(_) => self.caps.point_exact(q).map(|e| e.value),
-            None => None,
+        // Coarse first, then finer; exact only where the bound still
+        // straddles a threshold.
+        for tolerance in [
+            REGION_TOLERANCE,
+            REGION_TOLERANCE / 32.0,
+            REGION_TOLERANCE / 1024.0,
+        ] {
+            match self.caps_point(q, tolerance) {
+                Some(e) if decided(e) => return Some(e.value),
+                Some(_) => {}
+                None => return None,
+            }
         }
+        self.caps_point(q, 0.0).map(|e| e.value)
     }
 
     /// The mesh's own winding number at a centre (1 on the mesh itself).
@@ -548,7 +579,7 @@ impl Classifier<'_> {
         let Some((blo, bhi)) = centre_box(lo, size, self.dims) else {
             return Vec::new();
         };
-        match self.caps.bound(blo, bhi, REGION_TOLERANCE) {
+        match self.caps_bound(blo, bhi) {
             Some(e) if decided(e) => {
                 if e.value.abs() < 0.5 - AMBIGUITY_BAND {
                     return Vec::new();
@@ -606,34 +637,32 @@ impl Classifier<'_> {
             })
         };
         // `w` at each voxel: the line value plus an offset, or one value for all.
-        let mut apply = |w_of: WindingAt, mask: &mut BrickMask| {
+        let apply = |w_of: WindingAt, mask: &mut BrickMask, ambiguous: &mut u64| {
             for i in slots() {
                 let Some(mv) = m[i] else { continue };
                 let w = match w_of {
                     WindingAt::Offset(o) => mv as f64 + o,
                     WindingAt::Whole(w) => w,
                 };
-                if w >= 0.5 {
-                    mask[i / 64] |= 1 << (i % 64);
-                }
-                if (w - 0.5).abs() < AMBIGUITY_BAND {
-                    let v =
-                        brick_lo + Voxel::new((i % 8) as i32, (i / 8 % 8) as i32, (i / 64) as i32);
-                    if !self.surface.contains(v) {
-                        *ambiguous += 1;
-                    }
-                }
+                self.set(brick_lo, i, w, mask, ambiguous);
             }
         };
         if size == 1 {
             match self.cap_point(blo) {
-                Some(v) => apply(WindingAt::Offset(v), mask),
-                None => apply(WindingAt::Whole(self.mesh_winding(blo)), mask),
+                Some(v) => apply(WindingAt::Offset(v), mask, ambiguous),
+                None => apply(WindingAt::Whole(self.mesh_winding(blo)), mask, ambiguous),
             }
             return;
         }
-        match self.caps.bound(blo, bhi, REGION_TOLERANCE) {
-            Some(e) if decided(e) => return apply(WindingAt::Offset(e.value), mask),
+        match self.caps_bound(blo, bhi) {
+            Some(e) if decided(e) => return apply(WindingAt::Offset(e.value), mask, ambiguous),
+            // No cap in the box: the caps' w is smooth in it.
+            Some(_)
+                if size >= 4
+                    && self.interpolate(brick_lo, blo, bhi, Across::Caps, m, mask, ambiguous) =>
+            {
+                return;
+            }
             Some(_) => {}
             // A box meeting a cap but not the mesh: w is smooth in it, so one
             // centre's w (line value + caps) and the rim's gradient bound it.
@@ -644,7 +673,7 @@ impl Classifier<'_> {
                     let mv = m[i]?;
                     let q = brick_lo.as_dvec3()
                         + DVec3::new((i % 8) as f64, (i / 8 % 8) as f64, (i / 64) as f64);
-                    let e = self.caps.point(q, REGION_TOLERANCE)?;
+                    let e = self.caps_point(q, REGION_TOLERANCE)?;
                     Some(Estimate {
                         value: mv as f64 + e.value,
                         error: e.error + diameter * grad,
@@ -653,7 +682,12 @@ impl Classifier<'_> {
                 if let Some(w) = probe
                     && (w.value - 0.5).abs() > w.error
                 {
-                    return apply(WindingAt::Whole(w.value), mask);
+                    return apply(WindingAt::Whole(w.value), mask, ambiguous);
+                }
+                if size >= 4
+                    && self.interpolate(brick_lo, blo, bhi, Across::Mesh, m, mask, ambiguous)
+                {
+                    return;
                 }
             }
             None => {}
@@ -663,6 +697,110 @@ impl Classifier<'_> {
             let child = lo + Voxel::new(c & 1, (c >> 1) & 1, c >> 2) * half;
             self.refine_cube(brick_lo, child, half, m, mask, ambiguous);
         }
+    }
+}
+
+impl Classifier<'_> {
+    fn caps_point(&self, q: DVec3, tolerance: f64) -> Option<Estimate> {
+        self.points.fetch_add(1, Ordering::Relaxed);
+        self.caps.point(q, tolerance)
+    }
+
+    fn caps_bound(&self, lo: DVec3, hi: DVec3) -> Option<Estimate> {
+        self.boxes.fetch_add(1, Ordering::Relaxed);
+        self.caps.bound(lo, hi, REGION_TOLERANCE)
+    }
+
+    /// Records voxel `i` of a brick with winding number `w`.
+    fn set(&self, brick_lo: Voxel, i: usize, w: f64, mask: &mut BrickMask, ambiguous: &mut u64) {
+        if w >= 0.5 {
+            mask[i / 64] |= 1 << (i % 64);
+        }
+        if (w - 0.5).abs() < AMBIGUITY_BAND {
+            let v = brick_lo + Voxel::new((i % 8) as i32, (i / 8 % 8) as i32, (i / 64) as i32);
+            if !self.surface.contains(v) {
+                *ambiguous += 1;
+            }
+        }
+    }
+
+    /// Decides the box of centres `[blo, bhi]` from a smooth part of `w` at
+    /// its 8 corners: the trilinear interpolant errs by at most
+    /// `Σᵢ hᵢ²/8 · max|∂²/∂xᵢ²|`, bounded by the rim's
+    /// [`WindingTree::hessian_bound`] (the mesh's and the caps' winding
+    /// numbers share their rim). [`Across::Mesh`]: the box meets no mesh
+    /// triangle, so `w` itself is smooth; [`Across::Caps`]: it meets no cap,
+    /// so `w_{S'}` is, and each voxel adds its line value. Voxels the
+    /// interpolant does not decide are evaluated one by one. `false`
+    /// (nothing written) when a corner lies on a cap.
+    #[allow(clippy::too_many_arguments)]
+    fn interpolate(
+        &self,
+        brick_lo: Voxel,
+        blo: DVec3,
+        bhi: DVec3,
+        smooth: Across,
+        m: &[Option<i32>; 512],
+        mask: &mut BrickMask,
+        ambiguous: &mut u64,
+    ) -> bool {
+        let index = |q: DVec3| {
+            let l = q.as_ivec3() - brick_lo;
+            (l.x + 8 * l.y + 64 * l.z) as usize
+        };
+        let ext = bhi - blo;
+        let hessian = self.caps.hessian_bound(blo, bhi);
+        if !hessian.is_finite() {
+            return false;
+        }
+        let mut corner = [0.0f64; 8];
+        let mut error: f64 = 0.0;
+        for (c, w) in corner.iter_mut().enumerate() {
+            let t = DVec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, (c >> 2) as f64);
+            let q = blo + ext * t;
+            let (Some(mv), Some(e)) = (m[index(q)], self.caps_point(q, REGION_TOLERANCE / 4.0))
+            else {
+                return false;
+            };
+            *w = match smooth {
+                Across::Mesh => mv as f64 + e.value,
+                Across::Caps => e.value,
+            };
+            error = error.max(e.error);
+        }
+        error += ext.length_squared() / 8.0 * hessian;
+        let (a, b) = (blo.as_ivec3(), bhi.as_ivec3());
+        for z in a.z..=b.z {
+            for y in a.y..=b.y {
+                for x in a.x..=b.x {
+                    let q = Voxel::new(x, y, z).as_dvec3();
+                    let t = ((q - blo) / ext.max(DVec3::splat(1.0))).clamp(DVec3::ZERO, DVec3::ONE);
+                    let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+                    let c = |k: usize| corner[k];
+                    let w = lerp(
+                        lerp(lerp(c(0), c(1), t.x), lerp(c(2), c(3), t.x), t.y),
+                        lerp(lerp(c(4), c(5), t.x), lerp(c(6), c(7), t.x), t.y),
+                        t.z,
+                    );
+                    let i = index(q);
+                    let Some(mv) = m[i] else { continue };
+                    let w = match smooth {
+                        Across::Mesh => w,
+                        Across::Caps => mv as f64 + w,
+                    };
+                    let w = if (w - 0.5).abs() > error {
+                        w
+                    } else {
+                        match self.cap_point(q) {
+                            Some(v) => mv as f64 + v,
+                            None => self.mesh_winding(q),
+                        }
+                    };
+                    self.set(brick_lo, i, w, mask, ambiguous);
+                }
+            }
+        }
+        true
     }
 }
 
