@@ -362,8 +362,13 @@ pub struct SolidStats {
 /// holes are bridged.
 pub const AMBIGUITY_BAND: f64 = 0.1;
 
-/// Error tolerance of the caps' far field for boxes and for points.
-const REGION_TOLERANCE: f64 = 0.02;
+/// Barnes–Hut opening ratios: boxes and first point estimates use the
+/// first; points still undecided go on to the larger ones.
+const BETAS: [f64; 2] = [3.0, 6.0];
+/// Up to this many caps an undecided point is summed exactly at the end;
+/// beyond, the last estimate stands (its error bound is far below the
+/// ambiguity band, and `w` that close to ½ is a tie in all but name).
+const EXACT_CAPS: usize = 512;
 
 /// The interior of a quantized mesh (triangles at [`VOXEL_ONE`] per voxel)
 /// inside `[0, dims)`: the voxel centres the chosen test puts inside, as
@@ -547,29 +552,33 @@ impl Classifier<'_> {
     /// `w_{S'}` at a voxel centre, or `None` on a cap.
     fn cap_point(&self, q: DVec3) -> Option<f64> {
         // Coarse first, then finer; exact only where the bound still
-        // straddles a threshold.
-        for tolerance in [
-            REGION_TOLERANCE,
-            REGION_TOLERANCE / 32.0,
-            REGION_TOLERANCE / 1024.0,
-        ] {
-            match self.caps_point(q, tolerance) {
+        // straddles a threshold and the caps are few.
+        let mut last = 0.0;
+        for beta in BETAS {
+            match self.caps_point(q, beta) {
                 Some(e) if decided(e) => return Some(e.value),
-                Some(_) => {}
+                Some(e) => last = e.value,
                 None => return None,
             }
         }
-        self.caps_point(q, 0.0).map(|e| e.value)
+        if self.caps.len() > EXACT_CAPS {
+            return Some(last);
+        }
+        self.caps_point(q, f64::INFINITY).map(|e| e.value)
     }
 
     /// The mesh's own winding number at a centre (1 on the mesh itself).
     fn mesh_winding(&self, q: DVec3) -> f64 {
         // On the mesh itself the voxel is a surface voxel: solid either way.
-        match self.mesh.point(q, REGION_TOLERANCE) {
-            Some(e) if (e.value - 0.5).abs() > e.error => e.value,
-            Some(_) => self.mesh.point_exact(q).map_or(1.0, |e| e.value),
-            None => 1.0,
+        let mut last = 1.0;
+        for beta in BETAS {
+            match self.mesh.point(q, beta) {
+                Some(e) if (e.value - 0.5).abs() > e.error => return e.value,
+                Some(e) => last = e.value,
+                None => return 1.0,
+            }
         }
+        last
     }
 
     /// Rules for the bricks of the cube `[lo, lo + size)` (size a power of
@@ -673,7 +682,7 @@ impl Classifier<'_> {
                     let mv = m[i]?;
                     let q = brick_lo.as_dvec3()
                         + DVec3::new((i % 8) as f64, (i / 8 % 8) as f64, (i / 64) as f64);
-                    let e = self.caps_point(q, REGION_TOLERANCE)?;
+                    let e = self.caps_point(q, BETAS[0])?;
                     Some(Estimate {
                         value: mv as f64 + e.value,
                         error: e.error + diameter * grad,
@@ -701,14 +710,14 @@ impl Classifier<'_> {
 }
 
 impl Classifier<'_> {
-    fn caps_point(&self, q: DVec3, tolerance: f64) -> Option<Estimate> {
+    fn caps_point(&self, q: DVec3, beta: f64) -> Option<Estimate> {
         self.points.fetch_add(1, Ordering::Relaxed);
-        self.caps.point(q, tolerance)
+        self.caps.point(q, beta)
     }
 
     fn caps_bound(&self, lo: DVec3, hi: DVec3) -> Option<Estimate> {
         self.boxes.fetch_add(1, Ordering::Relaxed);
-        self.caps.bound(lo, hi, REGION_TOLERANCE)
+        self.caps.bound(lo, hi, BETAS[0])
     }
 
     /// Records voxel `i` of a brick with winding number `w`.
@@ -758,7 +767,7 @@ impl Classifier<'_> {
         for (c, w) in corner.iter_mut().enumerate() {
             let t = DVec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, (c >> 2) as f64);
             let q = blo + ext * t;
-            let (Some(mv), Some(e)) = (m[index(q)], self.caps_point(q, REGION_TOLERANCE / 4.0))
+            let (Some(mv), Some(e)) = (m[index(q)], self.caps_point(q, BETAS[1]))
             else {
                 return false;
             };

@@ -121,7 +121,6 @@ pub struct WindingTree {
     nodes: Vec<Node>,
     tris: Vec<[DVec3; 3]>,
     fixed: Vec<SurfaceTriangle>,
-    total_abs_area: f64,
     rim: RimTree,
 }
 
@@ -151,12 +150,10 @@ impl WindingTree {
         }
         let tris = order.iter().map(|&i| tri_f[i as usize]).collect();
         let fixed = order.iter().map(|&i| triangles[i as usize]).collect();
-        let total_abs_area = nodes.first().map_or(0.0, |n: &Node| n.abs_area);
         WindingTree {
             nodes,
             tris,
             fixed,
-            total_abs_area,
             rim: RimTree::new(triangles),
         }
     }
@@ -176,12 +173,13 @@ impl WindingTree {
     /// `None` when a triangle may meet the box (the winding number may jump
     /// there). The variation over the box is bounded by the
     /// half-diagonal times [`RimTree::gradient_bound`] of the soup's rim.
-    pub fn bound(&self, lo: DVec3, hi: DVec3, tolerance: f64) -> Option<Estimate> {
+    /// `beta` is the far-field opening ratio (see [`WindingTree::point`]).
+    pub fn bound(&self, lo: DVec3, hi: DVec3, beta: f64) -> Option<Estimate> {
         if self.meets_box(lo, hi) {
             return None;
         }
         let q = (lo + hi) * 0.5;
-        let mut e = self.walk(q, tolerance, None)?;
+        let mut e = self.walk(q, beta, None)?;
         let rho = (hi - lo).length() * 0.5;
         if rho > 0.0 {
             e.error += rho * self.rim.gradient_bound(lo, hi);
@@ -231,22 +229,24 @@ impl WindingTree {
     }
 
     /// The winding number at a point: `None` only when the point lies on a
-    /// triangle (closed, exact fixed-point test), where it is undefined. Far
-    /// nodes are accepted while their error bound stays within
-    /// `tolerance · A_node / A_total`.
-    pub fn point(&self, q: DVec3, tolerance: f64) -> Option<Estimate> {
+    /// triangle (closed, exact fixed-point test), where it is undefined. A
+    /// node is taken as one dipole when its distance exceeds `beta` times
+    /// its radius (Barnes–Hut's opening criterion; larger is more precise and
+    /// slower, `f64::INFINITY` sums every triangle exactly with libm's
+    /// arctangent); the error bound is rigorous for any `beta`.
+    pub fn point(&self, q: DVec3, beta: f64) -> Option<Estimate> {
         let qf = q.to_array().map(|c| (c * VOXEL_ONE as f64).round() as i64);
         let exact = (q * VOXEL_ONE as f64).to_array() == qf.map(|c| c as f64);
-        self.walk(q, tolerance, exact.then_some(qf))
+        self.walk(q, beta, exact.then_some(qf))
     }
 
     /// The winding number at a point by summing every triangle (no
     /// approximation; `None` on a triangle as for [`WindingTree::point`]).
     pub fn point_exact(&self, q: DVec3) -> Option<Estimate> {
-        self.point(q, 0.0)
+        self.point(q, f64::INFINITY)
     }
 
-    fn walk(&self, q: DVec3, tolerance: f64, fixed_point: Option<[i64; 3]>) -> Option<Estimate> {
+    fn walk(&self, q: DVec3, beta: f64, fixed_point: Option<[i64; 3]>) -> Option<Estimate> {
         let mut est = Estimate::default();
         if self.nodes.is_empty() {
             return Some(est);
@@ -258,13 +258,10 @@ impl WindingTree {
             let n = &self.nodes[stack[top] as usize];
             let d = (n.centre - q).length();
             let gap = (d - n.radius).max(box_distance(n.lo, n.hi, q, q));
-            if gap > 0.0 && tolerance > 0.0 {
-                let approx = n.abs_area * 2.0 * n.radius / (FOUR_PI * gap * gap * gap);
-                if approx <= tolerance * n.abs_area / self.total_abs_area {
-                    est.value += n.normal.dot(n.centre - q) / (FOUR_PI * d * d * d);
-                    est.error += approx;
-                    continue;
-                }
+            if gap > beta * n.radius {
+                est.value += n.normal.dot(n.centre - q) / (FOUR_PI * d * d * d);
+                est.error += n.abs_area * 2.0 * n.radius / (FOUR_PI * gap * gap * gap);
+                continue;
             }
             if n.left != 0 {
                 stack[top] = n.left;
@@ -279,9 +276,9 @@ impl WindingTree {
                 {
                     return None;
                 }
-                // Exact sums (tolerance 0) use libm; the others the fast
+                // Exact sums (beta ∞) use libm; the others the fast
                 // arctangent, its error added to the bound.
-                if tolerance > 0.0 {
+                if beta.is_finite() {
                     est.value += solid_angle_fast(t[0] - q, t[1] - q, t[2] - q) / FOUR_PI;
                     est.error += 2.0 * FAST_ATAN2_ERROR / FOUR_PI;
                 } else {
@@ -616,7 +613,7 @@ mod tests {
                 rng.random_range(-40.0..40.0),
             );
             let truth = brute(&tris, q);
-            for tol in [0.0, 1e-3, 0.05] {
+            for tol in [f64::INFINITY, 8.0, 2.0] {
                 let e = tree.point(q, tol).expect("off the soup");
                 assert!(
                     (e.value - truth).abs() <= e.error + 1e-9,
@@ -641,7 +638,7 @@ mod tests {
                 rng.random_range(-60.0..50.0),
             );
             let hi = lo + DVec3::splat(rng.random_range(0.5..8.0));
-            let Some(e) = tree.bound(lo, hi, 0.05) else {
+            let Some(e) = tree.bound(lo, hi, 2.0) else {
                 continue;
             };
             checked += 1;
