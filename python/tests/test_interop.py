@@ -64,10 +64,13 @@ def test_open3d_mesh_in():
         a = voxkit.voxelize(om, resolution=48, mode=mode)
         b = voxkit.voxelize(v, f, resolution=48, mode=mode)
         assert np.array_equal(a.indices(), b.indices())
-    # Open3D's own voxels scored by the library on Open3D's lattice: exactly
-    # conservative (as ../shared/peers measured), i.e. none extra.
+    # Open3D's own voxels scored by the library on Open3D's lattice: close to
+    # the exact conservative set of the 1/256-voxel mesh (Open3D decides
+    # touches in f64 on the unrounded mesh, so a few touching voxels differ:
+    # 4 missing and 3 extra of 6,350 here with Open3D 0.20).
     h = a.voxel_size
     og = o3d.geometry.VoxelGrid.create_from_triangle_mesh(om, voxel_size=h)
     idx = np.array([vx.grid_index for vx in og.get_voxels()], dtype=np.int64)
     m = voxkit.measure(om, idx, np.asarray(og.origin), h)
-    assert m["extra"] == 0
+    assert m["missing"] + m["extra"] < 0.002 * m["reference_voxels"], m
+    assert m["max_distance"] < 0.87 and m["tunnel6"] is False
