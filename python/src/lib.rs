@@ -18,7 +18,10 @@ mod grid;
 mod lines;
 mod render;
 
+use std::cell::RefCell;
+use std::collections::HashMap;
 use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::Arc;
 
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -73,10 +76,17 @@ where
     }
 }
 
-/// As [`run`], inside a thread pool of its own with `threads` workers when
-/// given (`None`: rayon's global pool, one worker per core). Calls from
-/// several Python threads each with `threads=1` then run side by side
-/// instead of queueing for the shared pool.
+thread_local! {
+    /// The pools of [`run_threads`] started by this (Python) thread, by
+    /// size: kept for the thread's next calls, ended with the thread.
+    static POOLS: RefCell<HashMap<usize, Arc<rayon::ThreadPool>>> = RefCell::new(HashMap::new());
+}
+
+/// As [`run`], inside a pool of `threads` workers when given (`None`:
+/// rayon's global pool, one worker per core). Each calling thread has pools
+/// of its own (started on its first such call, reused after), so calls from
+/// several Python threads each with `threads=1` run side by side instead of
+/// queueing for one shared pool.
 pub(crate) fn run_threads<T, F>(py: Python<'_>, threads: Option<usize>, work: F) -> PyResult<T>
 where
     T: Send,
@@ -88,10 +98,18 @@ where
     if n == 0 {
         return Err(value_error("threads must be at least 1"));
     }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(n)
-        .build()
-        .map_err(|e| PyRuntimeError::new_err(format!("cannot start {n} threads: {e}")))?;
+    let pool = POOLS.with(|pools| -> PyResult<Arc<rayon::ThreadPool>> {
+        if let Some(p) = pools.borrow().get(&n) {
+            return Ok(p.clone());
+        }
+        let p = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| PyRuntimeError::new_err(format!("cannot start {n} threads: {e}")))?;
+        let p = Arc::new(p);
+        pools.borrow_mut().insert(n, p.clone());
+        Ok(p)
+    })?;
     run(py, move || pool.install(work))
 }
 

@@ -278,9 +278,11 @@ def voxelize(
     cube meets the surface), ``"solid"`` (surface and interior).
     ``snap=True`` rounds vertices to the voxel lattice (faster on some
     meshes, less exact); otherwise vertices are kept to 1/256 voxel.
-    ``threads``: worker threads for this call (default: one per core, shared
-    by all calls); ``threads=1`` lets calls from several Python threads run
-    side by side, one core each (the GIL is released while voxelizing).
+    ``threads``: worker threads for this call (default: one per core, a pool
+    shared by all calls); with ``threads=n`` each calling Python thread keeps
+    a pool of ``n`` workers of its own, so ``threads=1`` lets calls from
+    several Python threads run side by side, one core each (the GIL is
+    released while voxelizing).
 
     >>> v, f = voxkit.load_mesh("data/meshes/obj/spot.obj")
     >>> g = voxkit.voxelize(v, f, resolution=64, mode="conservative")
