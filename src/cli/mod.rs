@@ -16,7 +16,7 @@ mod render;
 mod triangle;
 mod voxelize;
 
-pub use check::CheckArgs;
+pub use check::{CheckArgs, dilate26, enclosed_empty};
 pub use demo::DemoArgs;
 pub use line::LineArgs;
 pub use measure::MeasureArgs;

@@ -171,7 +171,7 @@ fn parse_window(s: &str) -> Result<(f32, f32), String> {
     }
 }
 
-fn parse_vec3(s: &str) -> Result<DVec3, String> {
+pub(crate) fn parse_vec3(s: &str) -> Result<DVec3, String> {
     let v: Vec<f64> = s
         .split(',')
         .map(|x| x.trim().parse::<f64>())

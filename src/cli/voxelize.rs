@@ -1,11 +1,17 @@
-//! `voxkit voxelize MESH -r N -o OUT [--mode thin|thick|conservative|solid] [--snap [--kahan-kelsen]] [--json] [--measure] [--force] [--max-memory MIB] [-q]`
+//! `voxkit voxelize MESH (-r N | --voxel-size H [--origin X,Y,Z]) -o OUT [--mode thin|thick|conservative|solid] [--snap [--kahan-kelsen]] [--json] [--measure] [--force] [--max-memory MIB] [-q]`
 //!
 //! Loads an OBJ / glTF mesh, voxelizes it ([`voxelize_mesh`]) and writes a
 //! `.binvox`, `.vox`, `.npy` or `.nrrd` file (by extension). An existing
 //! output is refused without `--force` (exit 2, checked before any work).
 //!
-//! `--json` prints one line with the keys `mesh`, `mode`, `resolution`,
-//! `snap`, `kahan_kelsen`, `dims`, `triangles`, `skipped_triangles`, `segments`, `voxels`,
+//! `-r N` fits `N` voxels along the mesh's longest side; `--voxel-size H`
+//! puts the grid on the lattice of voxels of edge `H` whose corners include
+//! `--origin` (default: the mesh's bounding-box min) and covers the mesh
+//! ([`Lattice`]).
+//!
+//! `--json` prints one line with the keys `mesh`, `mode`, `resolution`
+//! (`null` with `--voxel-size`), `voxel_size`, `origin` (the grid's min
+//! corner), `snap`, `kahan_kelsen`, `dims`, `triangles`, `skipped_triangles`, `segments`, `voxels`,
 //! `bricks`, `estimated_mib`, `load_ms`, `quantize_ms`, `kernel_ms`,
 //! `polyline_ms`, `voxelize_ms` (the
 //! whole voxelization, quantization included), `write_ms`, `peak_rss_mib`
@@ -26,7 +32,7 @@ use crate::grid::MemoryLimit;
 use crate::io::{VoxelFormat, write_voxels_limited};
 use crate::mesh::Mesh;
 use crate::voxelize::measure::{ErrorMeasures, measure_voxelization};
-use crate::voxelize::pipeline::{Progress, VoxelizeMode, VoxelizeOptions, voxelize_mesh};
+use crate::voxelize::pipeline::{Lattice, Progress, VoxelizeMode, VoxelizeOptions, voxelize_mesh};
 use crate::voxelize::solid::InsideTest;
 
 /// The `--mode` values.
@@ -59,8 +65,22 @@ pub struct VoxelizeArgs {
     /// The mesh (.obj, .gltf, .glb).
     pub mesh: PathBuf,
     /// Voxels along the longest side of the bounding box.
-    #[arg(short = 'r', long = "resolution", value_name = "N")]
-    pub resolution: u32,
+    #[arg(
+        short = 'r',
+        long = "resolution",
+        value_name = "N",
+        required_unless_present = "voxel_size",
+        conflicts_with = "voxel_size"
+    )]
+    pub resolution: Option<u32>,
+    /// Voxel edge length in world units (instead of -r): the grid covers the
+    /// mesh on the lattice of this size through --origin.
+    #[arg(long, value_name = "H")]
+    pub voxel_size: Option<f64>,
+    /// With --voxel-size: a voxel corner of the lattice (world); default: the
+    /// mesh's bounding-box min.
+    #[arg(long, value_name = "X,Y,Z", requires = "voxel_size", value_parser = super::render::parse_vec3, allow_hyphen_values = true)]
+    pub origin: Option<glam::DVec3>,
     /// Output file (.binvox, .vox, .npy, .nrrd).
     #[arg(short = 'o', long = "output", value_name = "OUT")]
     pub output: PathBuf,
@@ -136,6 +156,13 @@ fn ms(t: Instant) -> f64 {
 /// Runs `voxkit voxelize`.
 pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
     VoxelFormat::from_path(&args.output)?;
+    // clap's `requires` is not checked when the required argument conflicts
+    // with a present one (`-r`), so `-r N --origin …` is refused here.
+    if args.origin.is_some() && args.voxel_size.is_none() {
+        return Err(CliError::bad_input(
+            "--origin applies only with --voxel-size",
+        ));
+    }
     if !args.force && args.output.exists() {
         return Err(CliError::bad_input(format!(
             "{} exists (use --force to overwrite)",
@@ -156,7 +183,17 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
         b.enable_steady_tick(std::time::Duration::from_millis(120));
         b
     });
-    let mut opts = VoxelizeOptions::new(args.resolution, args.mode.into());
+    let lattice = match (args.resolution, args.voxel_size) {
+        (_, Some(voxel_size)) => Lattice::VoxelSize {
+            voxel_size,
+            origin: args.origin,
+        },
+        (Some(n), None) => Lattice::Resolution(n),
+        (None, None) => {
+            return Err(CliError::bad_input("give -r N or --voxel-size H"));
+        }
+    };
+    let mut opts = VoxelizeOptions::on_lattice(lattice, args.mode.into());
     opts.snap = args.snap;
     opts.kahan_kelsen = args.kahan_kelsen;
     opts.inside = args.inside;
@@ -204,6 +241,8 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "output": args.output.display().to_string(),
         "mode": VoxelizeMode::from(args.mode).name(),
         "resolution": args.resolution,
+        "voxel_size": v.frame.voxel_size,
+        "origin": v.frame.origin.to_array(),
         "snap": args.snap,
         "kahan_kelsen": args.kahan_kelsen,
         "dims": v.frame.dims,

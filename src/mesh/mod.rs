@@ -274,6 +274,86 @@ pub fn fit_frame_padded(
     Ok(GridFrame::new(origin, h, dims))
 }
 
+/// The grid frame for voxel size `h` over the box `bounds = (min, max)`: the
+/// grid lies on the lattice whose voxel corners are `origin + k·h` (`k`
+/// integer; `origin` defaults to the box's min corner) and covers the box.
+/// Its min corner is the lattice corner at or below the box's min on each
+/// axis, and each side spans `ceil((max - corner) / h)` voxels (at least 1),
+/// so, as with [`fit_frame`], the box is closed at its max faces: a vertex on
+/// the last lattice plane is kept in voxel `dims - 1` ([`fitted_voxel`]).
+/// A box end less than [`FIT_SLACK`] voxels beyond a lattice plane counts as
+/// on it (`h = longest / N` rarely divides the box exactly in `f64`); such a
+/// vertex is clamped onto the plane, which moves it less than the
+/// voxelizer's 1/256-voxel rounding ever sees. So with the default origin and
+/// `h` = [`fit_frame`]'s voxel size, the frames agree.
+///
+/// Fails with [`VoxkitError::Invalid`] for a size that is not finite and
+/// positive, a non-finite origin or bounds, and with
+/// [`VoxkitError::Unsupported`] when a side would span more than
+/// [`MAX_FITTED_DIM`] voxels (the caller's memory estimate caps the rest).
+///
+/// ```
+/// use glam::DVec3;
+/// use voxkit::mesh::fit_frame_voxel_size;
+/// let b = (DVec3::ZERO, DVec3::new(2.0, 1.0, 0.3));
+/// let f = fit_frame_voxel_size(b, 0.2, None).unwrap();
+/// assert_eq!((f.origin, f.dims), (DVec3::ZERO, [10, 5, 2]));
+/// // A lattice pinned elsewhere: corners at 0.05 + 0.2·k, covering the box.
+/// let f = fit_frame_voxel_size(b, 0.2, Some(DVec3::splat(0.05))).unwrap();
+/// assert!((f.origin - DVec3::splat(-0.15)).length() < 1e-12);
+/// assert_eq!(f.dims, [11, 6, 3]);
+/// ```
+pub fn fit_frame_voxel_size(
+    bounds: (DVec3, DVec3),
+    voxel_size: f64,
+    origin: Option<DVec3>,
+) -> Result<GridFrame> {
+    let (lo, hi) = bounds;
+    if !lo.is_finite() || !hi.is_finite() || hi.cmplt(lo).any() {
+        return Err(VoxkitError::invalid(format!(
+            "cannot fit a grid to bounds {lo}..{hi}"
+        )));
+    }
+    if !(voxel_size.is_finite() && voxel_size > 0.0) {
+        return Err(VoxkitError::invalid(format!(
+            "voxel size must be finite and positive, got {voxel_size}"
+        )));
+    }
+    let pin = origin.unwrap_or(lo);
+    if !pin.is_finite() {
+        return Err(VoxkitError::invalid(format!(
+            "lattice origin must be finite, got {pin}"
+        )));
+    }
+    let h = voxel_size;
+    let mut corner = DVec3::ZERO;
+    let mut dims = [0usize; 3];
+    for a in 0..3 {
+        // Whole voxels from the pinned corner down to the box (0 for the
+        // default origin), and the sides' counts, with the box narrowed by
+        // FIT_SLACK on both ends against rounding in the divisions.
+        let k = ((lo[a] - pin[a]) / h + FIT_SLACK).floor();
+        let n = ((hi[a] - pin[a]) / h - k - FIT_SLACK).ceil().max(1.0);
+        if !(k.is_finite() && n.is_finite()) || n > MAX_FITTED_DIM as f64 {
+            return Err(VoxkitError::Unsupported(format!(
+                "voxel size {h} over bounds {lo}..{hi} needs more than {MAX_FITTED_DIM} voxels per axis"
+            )));
+        }
+        corner[a] = pin[a] + k * h;
+        dims[a] = n as usize;
+    }
+    Ok(GridFrame::new(corner, h, dims))
+}
+
+/// How far (in voxels) a box end may lie beyond a lattice plane and still
+/// count as on it in [`fit_frame_voxel_size`]: 2^-10, under half of the
+/// voxelizer's 1/256-voxel step, so clamping such a vertex onto the plane
+/// does not change its fixed-point coordinate.
+pub const FIT_SLACK: f64 = 1.0 / 1024.0;
+
+/// The most voxels per axis a fitted grid may have (2^22).
+pub const MAX_FITTED_DIM: usize = 1 << 22;
+
 /// The voxel of grid-space point `g` in a fitted frame: `floor(g + 0.5)`,
 /// clamped into `0..dims` so that points on the max faces of the grid box are
 /// kept in the last voxel (the fitted box is closed; see the module docs).

@@ -1,7 +1,8 @@
 //! Mesh → voxel grid: the pipeline behind `voxkit voxelize`.
 //!
 //! [`voxelize_mesh`] runs, in order:
-//! 1. **fit** the grid frame to the mesh bounds ([`fit_frame`], `-r N`);
+//! 1. **fit** the grid frame to the mesh bounds ([`Lattice`]: [`fit_frame`]
+//!    for `-r N`, [`fit_frame_voxel_size`] for a voxel size);
 //! 2. **quantize** every vertex once to fixed-point grid coordinates with
 //!    [`VOXEL_FRAC_BITS`] fraction bits (1/256 voxel), or with
 //!    [`VoxelizeOptions::snap`] to the integer voxel lattice (the voxel the
@@ -55,6 +56,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
+use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::error::{Result, VoxkitError};
@@ -62,7 +64,7 @@ use crate::fixed::FRAC_BITS;
 use crate::grid::brick::BrickMask;
 use crate::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
 use crate::line::{Line26, Segment, Tripod6};
-use crate::mesh::{Mesh, fit_frame, fitted_voxel};
+use crate::mesh::{MAX_FITTED_DIM, Mesh, fit_frame, fit_frame_voxel_size, fitted_voxel};
 use crate::voxelize::conservative::{FixedTriangle, conservative_voxels};
 use crate::voxelize::slab::BrickList;
 use crate::voxelize::snapped::voxelize_snapped;
@@ -119,11 +121,53 @@ pub struct Progress {
 /// A progress callback (called from the calling thread between phases).
 pub type ProgressFn = dyn Fn(Progress) + Send + Sync;
 
+/// Which lattice the grid is fitted on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Lattice {
+    /// `N` voxels along the longest side of the mesh's bounding box (`-r N`,
+    /// [`fit_frame`]).
+    Resolution(u32),
+    /// Voxels of edge `voxel_size` with corners at `origin + k·voxel_size`
+    /// (`origin` defaults to the bounding box's min corner); the grid covers
+    /// the bounding box (`--voxel-size H [--origin X,Y,Z]`,
+    /// [`fit_frame_voxel_size`]).
+    VoxelSize {
+        /// Voxel edge in world units (finite, > 0).
+        voxel_size: f64,
+        /// A world point on the lattice (a voxel corner).
+        origin: Option<DVec3>,
+    },
+}
+
+impl Lattice {
+    /// The grid frame of this lattice over `bounds`.
+    ///
+    /// # Errors
+    /// [`VoxkitError::Invalid`] for a zero resolution, a voxel size that is
+    /// not finite and positive or a non-finite origin;
+    /// [`VoxkitError::Unsupported`] beyond [`MAX_FITTED_DIM`] voxels per axis.
+    pub fn fit(&self, bounds: (DVec3, DVec3)) -> Result<GridFrame> {
+        let frame = match *self {
+            Lattice::Resolution(n) => fit_frame(bounds, n)?,
+            Lattice::VoxelSize { voxel_size, origin } => {
+                fit_frame_voxel_size(bounds, voxel_size, origin)?
+            }
+        };
+        if frame.dims.iter().any(|&d| d > MAX_FITTED_DIM) {
+            return Err(VoxkitError::Unsupported(format!(
+                "a grid of {:?} voxels exceeds the supported {MAX_FITTED_DIM} per axis",
+                frame.dims
+            )));
+        }
+        Ok(frame)
+    }
+}
+
 /// Options of [`voxelize_mesh`].
 #[derive(Clone)]
 pub struct VoxelizeOptions {
-    /// Voxels along the longest side of the mesh's bounding box (`-r N`).
-    pub resolution: u32,
+    /// The lattice: a resolution (`-r N`) or a voxel size.
+    pub lattice: Lattice,
     /// Which voxel set.
     pub mode: VoxelizeMode,
     /// Round vertices to the integer voxel lattice instead of 1/256 voxel.
@@ -143,7 +187,7 @@ pub struct VoxelizeOptions {
 impl std::fmt::Debug for VoxelizeOptions {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("VoxelizeOptions")
-            .field("resolution", &self.resolution)
+            .field("lattice", &self.lattice)
             .field("mode", &self.mode)
             .field("snap", &self.snap)
             .field("kahan_kelsen", &self.kahan_kelsen)
@@ -158,8 +202,13 @@ impl VoxelizeOptions {
     /// Options for `resolution` and `mode`: exact 1/256 vertices, default
     /// memory limit, no progress callback.
     pub fn new(resolution: u32, mode: VoxelizeMode) -> Self {
+        Self::on_lattice(Lattice::Resolution(resolution), mode)
+    }
+
+    /// As [`VoxelizeOptions::new`] on any [`Lattice`].
+    pub fn on_lattice(lattice: Lattice, mode: VoxelizeMode) -> Self {
         VoxelizeOptions {
-            resolution,
+            lattice,
             mode,
             snap: false,
             kahan_kelsen: false,
@@ -442,13 +491,7 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
         done += 1;
     };
     report("quantize");
-    let frame = fit_frame(mesh.bounds(), opts.resolution)?;
-    if frame.dims.iter().any(|&d| d > (1 << 22)) {
-        return Err(VoxkitError::Unsupported(format!(
-            "resolution {} exceeds the supported 2^22 voxels per axis",
-            opts.resolution
-        )));
-    }
+    let frame = opts.lattice.fit(mesh.bounds())?;
     let quantized = quantize_mesh(mesh, &frame, opts.snap);
     let (triangles, skipped, segments) = (
         &quantized.triangles,

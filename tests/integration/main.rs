@@ -6,6 +6,7 @@ mod conservative;
 mod demo;
 mod formats;
 mod images;
+mod lattice;
 mod line2d;
 mod lines;
 mod mesh_io;

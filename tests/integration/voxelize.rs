@@ -20,7 +20,8 @@ use voxkit::mesh::Mesh;
 use voxkit::voxelize::conservative::triangle_meets_voxel;
 use voxkit::voxelize::measure::{is_closed, measure_external, measure_voxelization};
 use voxkit::voxelize::pipeline::{
-    Voxelization, VoxelizeMode, VoxelizeOptions, segment_to_reference, to_reference, voxelize_mesh,
+    Lattice, Voxelization, VoxelizeMode, VoxelizeOptions, segment_to_reference, to_reference,
+    voxelize_mesh,
 };
 use voxkit::voxelize::shapes::{IndexedMesh, random_rotation};
 use voxkit::voxelize::solid::winding_number;
@@ -417,7 +418,7 @@ fn memory_limit_refuses_before_allocating() {
         other => panic!("expected a limits error, got {other:?}"),
     }
     o.mode = VoxelizeMode::Thin;
-    o.resolution = 64;
+    o.lattice = Lattice::Resolution(64);
     assert!(voxelize_mesh(&mesh, &o).is_ok());
 }
 

@@ -1,0 +1,396 @@
+//! `render` and `read_volume`: the library's ray caster (`voxkit render`)
+//! on a voxel grid or a scalar volume, with the command line's defaults.
+
+use clap::ValueEnum;
+use glam::DVec3;
+use ndarray::{Array1, Array2, Array3, ShapeBuilder};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use voxkit::VoxkitError;
+use voxkit::camera::{Camera, SceneAxes, ViewPreset};
+use voxkit::grid::{BrickGrid, GridFrame, MemoryLimit, ScalarVolume, VolumeData, VolumeFrame};
+use voxkit::render::{
+    GridTransform, NormalMode, OccupancyGrid, RayKind, RenderImage, RenderOptions, Sampling,
+    TransferFunction, VolumeMode, VolumeOptions, VolumeScene, occupied_world_box,
+};
+
+use crate::grid::{Grid, limit_of};
+use crate::{run, value_error};
+
+/// A `ValueEnum` of the library by its command-line name.
+fn named<T: ValueEnum>(what: &str, s: &str) -> PyResult<T> {
+    T::from_str(s, true).map_err(|_| {
+        let names: Vec<String> = T::value_variants()
+            .iter()
+            .filter_map(|v| v.to_possible_value().map(|p| format!("{:?}", p.get_name())))
+            .collect();
+        value_error(format!(
+            "{what} must be one of {}, got {s:?}",
+            names.join(", ")
+        ))
+    })
+}
+
+/// The camera and image options shared by grids and volumes.
+pub struct View {
+    width: u32,
+    height: u32,
+    eye: Option<DVec3>,
+    target: Option<DVec3>,
+    up: Option<DVec3>,
+    fov: f64,
+    ortho: bool,
+    view: ViewPreset,
+    opts: RenderOptions,
+}
+
+impl View {
+    /// The camera for the world box `[lo, hi]`, as `voxkit render` places
+    /// it: `--eye` (looking at `--target`, default the box centre), or the
+    /// preset view framing the box, moved to look at `--target` if given.
+    fn camera(&self, lo: DVec3, hi: DVec3, axes: SceneAxes) -> voxkit::Result<Camera> {
+        if !(self.fov > 0.0 && self.fov < 180.0) {
+            return Err(VoxkitError::invalid(format!(
+                "fov {}: the field of view must be in (0, 180) degrees",
+                self.fov
+            )));
+        }
+        let (dir, preset_up) = axes.view(self.view);
+        let up = self.up.unwrap_or(preset_up);
+        let target = self.target.unwrap_or((lo + hi) * 0.5);
+        Ok(match self.eye {
+            Some(eye) if self.ortho => {
+                Camera::orthographic(eye, target, up, (hi - lo).length().max(1e-9))
+            }
+            Some(eye) => Camera::perspective(eye, target, up, self.fov),
+            None => {
+                let fov = (!self.ortho).then_some(self.fov);
+                let mut c = Camera::framing(lo, hi, dir, up, fov, self.width, self.height)?;
+                if let Some(t) = self.target {
+                    c.eye += t - c.target;
+                    c.target = t;
+                }
+                c
+            }
+        })
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn view_of(
+    size: (u32, u32),
+    eye: Option<[f64; 3]>,
+    target: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    fov: f64,
+    ortho: bool,
+    view: &str,
+    ray: &str,
+    skip: bool,
+    normals: &str,
+    background: [f64; 3],
+    max_memory_mib: u64,
+) -> PyResult<View> {
+    let (width, height) = size;
+    let opts = RenderOptions {
+        width,
+        height,
+        ray: named::<RayKind>("ray", ray)?,
+        skip,
+        normals: named::<NormalMode>("normals", normals)?,
+        background: background.map(|c| c as f32),
+        limit: limit_of(max_memory_mib),
+        ..RenderOptions::default()
+    };
+    Ok(View {
+        width,
+        height,
+        eye: eye.map(DVec3::from_array),
+        target: target.map(DVec3::from_array),
+        up: up.map(DVec3::from_array),
+        fov,
+        ortho,
+        view: named::<ViewPreset>("view", view)?,
+        opts,
+    })
+}
+
+type Image<'py> = (Bound<'py, PyArray3<u8>>, Bound<'py, PyArray2<f32>>);
+
+/// `(rgb (H, W, 3) uint8, depth (H, W) float32)` of a rendered image.
+fn to_arrays<'py>(py: Python<'py>, img: RenderImage, background: [f32; 3]) -> Image<'py> {
+    let (w, h) = (img.width as usize, img.height as usize);
+    let mut rgb = img.to_rgba8(background);
+    // RGBA → RGB in place (each pixel moves left; never over one unread).
+    for p in 0..w * h {
+        rgb.copy_within(4 * p..4 * p + 3, 3 * p);
+    }
+    rgb.truncate(3 * w * h);
+    (
+        Array3::from_shape_vec((h, w, 3), rgb)
+            .expect("3 bytes per pixel")
+            .into_pyarray(py),
+        Array2::from_shape_vec((h, w), img.depth)
+            .expect("one depth per pixel")
+            .into_pyarray(py),
+    )
+}
+
+/// Renders a voxel grid (its world frame; Y up, as `voxkit render` takes
+/// binvox/npy/NRRD grids).
+#[pyfunction]
+#[pyo3(signature = (grid, size, eye, target, up, fov, ortho, view, ray, skip, normals, background, max_memory_mib))]
+#[allow(clippy::too_many_arguments)]
+pub fn render_grid<'py>(
+    py: Python<'py>,
+    grid: &Grid,
+    size: (u32, u32),
+    eye: Option<[f64; 3]>,
+    target: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    fov: f64,
+    ortho: bool,
+    view: &str,
+    ray: &str,
+    skip: bool,
+    normals: &str,
+    background: [f64; 3],
+    max_memory_mib: u64,
+) -> PyResult<Image<'py>> {
+    let v = view_of(
+        size,
+        eye,
+        target,
+        up,
+        fov,
+        ortho,
+        view,
+        ray,
+        skip,
+        normals,
+        background,
+        max_memory_mib,
+    )?;
+    let img = run(py, || {
+        render_occupancy(&grid.grid, &grid.frame, SceneAxes::Y_UP, &v)
+    })?;
+    Ok(to_arrays(py, img, v.opts.background))
+}
+
+fn render_occupancy(
+    grid: &BrickGrid,
+    frame: &GridFrame,
+    axes: SceneAxes,
+    v: &View,
+) -> voxkit::Result<RenderImage> {
+    let xf = GridTransform::from_frame(frame)?;
+    render_in(grid, frame.dims, &xf, axes, v)
+}
+
+fn render_in(
+    grid: &BrickGrid,
+    dims: [usize; 3],
+    xf: &GridTransform,
+    axes: SceneAxes,
+    v: &View,
+) -> voxkit::Result<RenderImage> {
+    let occ = OccupancyGrid::new(grid, dims, v.opts.limit)?;
+    let (lo, hi) = occupied_world_box(&occ, xf);
+    let cam = v.camera(lo, hi, axes)?;
+    Ok(voxkit::render::render_grid(&occ, xf, &cam, &v.opts)?.0)
+}
+
+/// The samples of a 3D array in x-fastest order (any layout).
+fn samples<T: numpy::Element + Copy>(a: &Bound<'_, PyAny>) -> Option<([usize; 3], Vec<T>)> {
+    let a = a.cast::<PyArray3<T>>().ok()?;
+    let ro = a.readonly();
+    let view = ro.as_array();
+    let s = view.shape();
+    let dims = [s[0], s[1], s[2]];
+    // The transposed view iterates with axis 0 (x) fastest.
+    Some((dims, view.t().iter().copied().collect()))
+}
+
+/// A `ScalarVolume` from a 3D numpy array indexed `[x, y, z]`.
+fn volume_of(
+    array: &Bound<'_, PyAny>,
+    spacing: [f64; 3],
+    origin: [f64; 3],
+) -> PyResult<ScalarVolume> {
+    let (dims, data) = if let Some((d, v)) = samples::<bool>(array) {
+        (d, VolumeData::U8(v.into_iter().map(u8::from).collect()))
+    } else if let Some((d, v)) = samples::<u8>(array) {
+        (d, VolumeData::U8(v))
+    } else if let Some((d, v)) = samples::<i8>(array) {
+        (d, VolumeData::I8(v))
+    } else if let Some((d, v)) = samples::<i16>(array) {
+        (d, VolumeData::I16(v))
+    } else if let Some((d, v)) = samples::<u16>(array) {
+        (d, VolumeData::U16(v))
+    } else if let Some((d, v)) = samples::<i32>(array) {
+        (d, VolumeData::I32(v))
+    } else if let Some((d, v)) = samples::<u32>(array) {
+        (d, VolumeData::U32(v))
+    } else if let Some((d, v)) = samples::<f32>(array) {
+        (d, VolumeData::F32(v))
+    } else if let Some((d, v)) = samples::<f64>(array) {
+        (d, VolumeData::F64(v))
+    } else {
+        let got = match array.cast::<numpy::PyUntypedArray>() {
+            Ok(a) => format!("shape {:?}, dtype {}", a.shape(), a.dtype()),
+            Err(_) => "not a numpy array".to_string(),
+        };
+        return Err(value_error(format!(
+            "a volume must be a 3D array of bool, (u)int8/16/32, float32 or float64 ({got})"
+        )));
+    };
+    let frame = VolumeFrame::from_spacing(DVec3::from_array(origin), DVec3::from_array(spacing));
+    ScalarVolume::new(dims, data, frame).map_err(crate::to_py_err)
+}
+
+/// Renders a scalar volume (`voxkit render` on a volume file): MIP,
+/// compositing or an iso-surface; a 0/1 volume without `volume` renders as
+/// a voxel grid, as on the command line. Z up.
+#[pyfunction]
+#[pyo3(signature = (array, spacing, origin, size, eye, target, up, fov, ortho, view, ray, skip, normals, background, max_memory_mib, volume, iso, window, tf, sampling))]
+#[allow(clippy::too_many_arguments)]
+pub fn render_volume<'py>(
+    py: Python<'py>,
+    array: &Bound<'py, PyAny>,
+    spacing: [f64; 3],
+    origin: [f64; 3],
+    size: (u32, u32),
+    eye: Option<[f64; 3]>,
+    target: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    fov: f64,
+    ortho: bool,
+    view: &str,
+    ray: &str,
+    skip: bool,
+    normals: &str,
+    background: [f64; 3],
+    max_memory_mib: u64,
+    volume: Option<&str>,
+    iso: Option<f32>,
+    window: Option<(f32, f32)>,
+    tf: Option<&str>,
+    sampling: &str,
+) -> PyResult<Image<'py>> {
+    let v = view_of(
+        size,
+        eye,
+        target,
+        up,
+        fov,
+        ortho,
+        view,
+        ray,
+        skip,
+        normals,
+        background,
+        max_memory_mib,
+    )?;
+    let sampling = named::<Sampling>("sampling", sampling)?;
+    let mode = match volume {
+        None | Some("mip") => None,
+        Some("composite") => Some(VolumeMode::Composite),
+        Some("iso") => Some(VolumeMode::Iso(f32::NAN)),
+        Some(other) => {
+            return Err(value_error(format!(
+                "volume must be \"mip\", \"composite\" or \"iso\", got {other:?}"
+            )));
+        }
+    };
+    if iso.is_some() && volume != Some("iso") {
+        return Err(value_error("iso applies only with volume=\"iso\""));
+    }
+    if let Some((lo, hi)) = window
+        && !(lo.is_finite() && hi.is_finite() && lo < hi)
+    {
+        return Err(value_error(format!(
+            "window must be (lo, hi) with lo < hi, got ({lo}, {hi})"
+        )));
+    }
+    let vol = volume_of(array, spacing, origin)?;
+    let tf = tf.map(str::to_string);
+    let img = run(py, || {
+        if volume.is_none() && vol.is_binary() {
+            // A 0/1 grid: occupancy, as `voxkit render` treats it.
+            let xf = GridTransform::new(vol.frame.origin, vol.frame.axes)?;
+            return render_in(&vol.to_brick_grid(), vol.dims, &xf, SceneAxes::Y_UP, &v);
+        }
+        let mut vopts = VolumeOptions::new(&vol, VolumeMode::Mip);
+        if let Some(w) = window {
+            vopts.window = w;
+            vopts.transfer = TransferFunction::ramp(w);
+        }
+        if let Some(tf) = &tf {
+            vopts.transfer = TransferFunction::parse(tf)?;
+        }
+        vopts.sampling = sampling;
+        vopts.mode = match mode {
+            None => VolumeMode::Mip,
+            Some(VolumeMode::Iso(_)) => {
+                let level = iso.unwrap_or((vopts.window.0 + vopts.window.1) * 0.5);
+                if !level.is_finite() {
+                    return Err(VoxkitError::invalid("iso must be a finite value"));
+                }
+                VolumeMode::Iso(level)
+            }
+            Some(m) => m,
+        };
+        let scene = VolumeScene::new(&vol, v.opts.limit)?;
+        let xf = *scene.transform();
+        let d = scene.dims().map(|x| x as f64);
+        let (lo, hi) = xf.world_bounds(DVec3::splat(-0.5), DVec3::from_array(d) - 0.5);
+        let cam = v.camera(lo, hi, SceneAxes::Z_UP)?;
+        Ok(voxkit::render::render_volume(&scene, &cam, &v.opts, &vopts)?.0)
+    })?;
+    Ok(to_arrays(py, img, v.opts.background))
+}
+
+/// `(array [x, y, z] in the file's dtype (Fortran order: no copy), spacing
+/// (3,), origin (3,))` of a scalar-volume file (NRRD / NHDR, MetaImage,
+/// .npy). `origin` is the world position of voxel (0, 0, 0)'s centre;
+/// `spacing` the lengths of the voxel axes (sheared axes lose their
+/// directions here).
+#[pyfunction]
+#[pyo3(signature = (path, max_memory_mib = 4096))]
+#[allow(clippy::type_complexity)]
+pub fn read_volume<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    max_memory_mib: u64,
+) -> PyResult<(
+    Bound<'py, PyAny>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+)> {
+    let vol = run(py, || {
+        voxkit::io::volume::read_volume(&path, MemoryLimit::new(max_memory_mib << 20))
+    })?;
+    let [nx, ny, nz] = vol.dims;
+    let shape = (nx, ny, nz).f();
+    macro_rules! arr {
+        ($v:expr) => {
+            Array3::from_shape_vec(shape, $v)
+                .expect("nx*ny*nz samples")
+                .into_pyarray(py)
+                .into_any()
+        };
+    }
+    let array = match vol.data {
+        VolumeData::I8(v) => arr!(v),
+        VolumeData::U8(v) => arr!(v),
+        VolumeData::I16(v) => arr!(v),
+        VolumeData::U16(v) => arr!(v),
+        VolumeData::I32(v) => arr!(v),
+        VolumeData::U32(v) => arr!(v),
+        VolumeData::F32(v) => arr!(v),
+        VolumeData::F64(v) => arr!(v),
+    };
+    let spacing = Array1::from_vec(vol.frame.spacing().to_array().to_vec()).into_pyarray(py);
+    let origin = Array1::from_vec(vol.frame.origin.to_array().to_vec()).into_pyarray(py);
+    Ok((array, spacing, origin))
+}
