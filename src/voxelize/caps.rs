@@ -23,6 +23,7 @@
 use std::collections::HashMap;
 use std::hash::Hash;
 
+use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::grid::brick::FxHasher;
@@ -153,6 +154,38 @@ pub fn boundary_caps(
         }
     }
     caps
+}
+
+/// Closes an indexed mesh's holes: for each boundary component (by vertex
+/// index), a new vertex at its centroid and the reversed fan over its
+/// boundary edges, so that the result has no boundary. Returns the new
+/// positions and triangles (the old ones first, unchanged). A simple hole
+/// filler for closed test meshes, not a fairing one.
+///
+/// ```
+/// use glam::DVec3;
+/// use voxkit::voxelize::caps::{boundary_edges, close_holes};
+/// // A square (two triangles) becomes a closed double-sided sheet.
+/// let p = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::ONE.with_z(0.0)];
+/// let (q, t) = close_holes(&p, &[[0, 1, 3], [0, 3, 2]]);
+/// assert_eq!((q.len(), t.len()), (5, 6));
+/// assert!(boundary_edges(t.iter().copied()).is_empty());
+/// ```
+pub fn close_holes(positions: &[DVec3], triangles: &[[u32; 3]]) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    let mut p = positions.to_vec();
+    let mut t = triangles.to_vec();
+    let edges = boundary_edges(triangles.iter().copied());
+    for component in boundary_components(&edges) {
+        let centre = component
+            .iter()
+            .map(|&(a, _)| positions[a as usize])
+            .sum::<DVec3>()
+            / component.len() as f64;
+        let apex = p.len() as u32;
+        p.push(centre);
+        t.extend(component.iter().map(|&(a, b)| [apex, b, a]));
+    }
+    (p, t)
 }
 
 fn zero_area(t: &SurfaceTriangle) -> bool {

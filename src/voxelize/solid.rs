@@ -767,8 +767,7 @@ impl Classifier<'_> {
         for (c, w) in corner.iter_mut().enumerate() {
             let t = DVec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, (c >> 2) as f64);
             let q = blo + ext * t;
-            let (Some(mv), Some(e)) = (m[index(q)], self.caps_point(q, BETAS[1]))
-            else {
+            let (Some(mv), Some(e)) = (m[index(q)], self.caps_point(q, BETAS[1])) else {
                 return false;
             };
             *w = match smooth {
