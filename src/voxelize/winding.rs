@@ -395,14 +395,7 @@ fn build_rim(nodes: &mut Vec<RimNode>, segs: &mut [[DVec3; 2]], start: usize) ->
         right: 0,
     });
     if segs.len() > LEAF {
-        let ext = hi - lo;
-        let axis = if ext.x >= ext.y && ext.x >= ext.z {
-            0
-        } else if ext.y >= ext.z {
-            1
-        } else {
-            2
-        };
+        let axis = longest_axis(hi - lo);
         let mid = segs.len() / 2;
         segs.select_nth_unstable_by(mid, |a, b| {
             (a[0] + a[1])[axis].total_cmp(&(b[0] + b[1])[axis])
@@ -462,14 +455,7 @@ fn build(
         right: 0,
     });
     if order.len() > LEAF {
-        let ext = hi - lo;
-        let axis = if ext.x >= ext.y && ext.x >= ext.z {
-            0
-        } else if ext.y >= ext.z {
-            1
-        } else {
-            2
-        };
+        let axis = longest_axis(hi - lo);
         let mid = order.len() / 2;
         order.select_nth_unstable_by(mid, |&a, &b| {
             centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
@@ -526,6 +512,17 @@ fn triangle_meets_box(t: &[DVec3; 3], lo: DVec3, hi: DVec3) -> bool {
         }
     }
     true
+}
+
+/// The axis of the largest extent (the split axis of both trees).
+fn longest_axis(ext: DVec3) -> usize {
+    if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    }
 }
 
 #[inline]
