@@ -2,7 +2,7 @@
 //! the `voxelize` / `check` commands.
 //!
 //! Oracles: the tunnel search of `topology::tunnels` with inside seeds from
-//! the voting solid (via `measure_voxelization`), a brute-force scan of every
+//! the exact parity interior (via `measure_voxelization`), a brute-force scan of every
 //! grid voxel with the exact `triangle_meets_voxel`, the winding-number
 //! solid, a single-threaded rayon pool, and file round trips.
 
