@@ -133,7 +133,21 @@ pub fn boundary_caps(
     triangles: &[SurfaceTriangle],
     degenerate: &[SurfaceTriangle],
 ) -> Vec<SurfaceTriangle> {
-    let edges = boundary_edges(triangles.iter().chain(degenerate).copied());
+    // Positions packed into one u128 each (31 bits per biased coordinate;
+    // fitted coordinates are below 2^30): cheap keys to sort edges by.
+    const BIAS: i64 = 1 << 30;
+    let pack = |p: [i64; 3]| -> u128 {
+        p.iter().fold(0u128, |k, &c| {
+            (k << 32) | (c + BIAS).clamp(0, u32::MAX as i64) as u128
+        })
+    };
+    let unpack =
+        |k: u128| -> [i64; 3] { [2, 1, 0].map(|i| ((k >> (32 * i)) as u32) as i64 - BIAS) };
+    let packed = triangles.iter().chain(degenerate).map(|t| t.map(pack));
+    let edges: Vec<([i64; 3], [i64; 3])> = boundary_edges(packed)
+        .into_iter()
+        .map(|(a, b)| (unpack(a), unpack(b)))
+        .collect();
     let mut caps = Vec::with_capacity(edges.len());
     for component in boundary_components(&edges) {
         let mut sum = [0i128; 3];
