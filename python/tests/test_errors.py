@@ -43,7 +43,7 @@ def nan_vertices():
         (lambda: voxkit.voxelize(V, F, voxel_size=1e-300), ValueError, "per axis"),
         (lambda: voxkit.voxelize(V, F, resolution=8, mode="hollow"), ValueError, "mode"),
         (lambda: voxkit.voxelize("not a mesh"), TypeError, "vertices"),
-        (lambda: voxkit.voxelize(V, F, resolution=4000, mode="solid"), MemoryError, "memory limit"),
+        (lambda: voxkit.voxelize(V, F, resolution=4000, mode="solid", max_memory_mib=16), MemoryError, "memory limit"),
         (lambda: voxkit.voxelize(V, F, resolution=64, max_memory_mib=0), MemoryError, "memory limit"),
         (lambda: voxkit.voxelize(V, F, voxel_size=1e-5), MemoryError, "memory limit"),
         (lambda: voxkit.load_mesh("/nonexistent/x.obj"), FileNotFoundError, "nonexistent"),
