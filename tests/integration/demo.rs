@@ -9,7 +9,15 @@ fn demo_prints_tables_and_writes_files() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_voxkit"))
-        .args(["demo", "--segments", "300", "--resolution", "48"])
+        .args([
+            "demo",
+            "--segments",
+            "300",
+            "--resolution",
+            "48",
+            "--size",
+            "96",
+        ])
         .current_dir(&dir)
         .output()
         .unwrap();
@@ -25,6 +33,8 @@ fn demo_prints_tables_and_writes_files() {
         "| Amanatides-Woo |",
         "| thin |",
         "| thick |",
+        "| solid |",
+        "| adaptive |",
     ] {
         assert!(text.contains(row), "missing {row} in:\n{text}");
     }
@@ -34,7 +44,7 @@ fn demo_prints_tables_and_writes_files() {
         .find(|l| l.starts_with("| tripod 6-line |"))
         .unwrap();
     assert_eq!(
-        tripod.split('|').nth(5).unwrap().trim(),
+        tripod.split('|').nth(6).unwrap().trim(),
         "100.0%",
         "{tripod}"
     );
@@ -51,7 +61,35 @@ fn demo_prints_tables_and_writes_files() {
     )
     .unwrap();
     assert!(grid.count() > 0);
-    let png = std::fs::read(dir.join("out/spot.png")).unwrap();
-    assert_eq!(&png[1..4], b"PNG");
+    for mode in ["thin", "thick", "conservative", "solid"] {
+        let (g, _) = voxkit::io::read_voxels(
+            &dir.join(format!("out/spot_{mode}.binvox")),
+            voxkit::grid::MemoryLimit::DEFAULT,
+        )
+        .unwrap();
+        assert!(g.count() >= grid.count(), "{mode}");
+    }
+    for png in [
+        "spot_mesh",
+        "spot_ray_6",
+        "spot_ray_26",
+        "spot_ray_adaptive",
+        "spot_ray_aw",
+    ] {
+        let bytes = std::fs::read(dir.join(format!("out/{png}.png"))).unwrap();
+        assert_eq!(&bytes[1..4], b"PNG", "{png}");
+    }
+    let exr = voxkit::io::image::read_exr(&dir.join("out/spot_ray_adaptive.exr")).unwrap();
+    assert_eq!((exr.width, exr.height), (96, 96));
+    // The adaptive ray's first hits are the 6-ray's on every pixel.
+    let adaptive = text
+        .lines()
+        .find(|l| l.starts_with("| adaptive |"))
+        .unwrap();
+    assert_eq!(
+        adaptive.split('|').nth(5).unwrap().trim(),
+        "0",
+        "{adaptive}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
