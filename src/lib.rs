@@ -19,6 +19,26 @@
 //! | [`voxelize`] | mesh voxelization and its exact references (conservative, solid) |
 //! | [`cli`] | the `voxkit` command line |
 //!
+//! # In five lines
+//!
+//! Load a mesh, voxelize it thin, check exactly that no 6-connected path of
+//! empty voxels crosses the surface, and write a `.binvox` (README's example):
+//!
+//! ```
+//! # fn main() -> voxkit::Result<()> {
+//! use voxkit::{grid::MemoryLimit, mesh::Mesh, voxelize::{measure::measure_voxelization, pipeline::*}};
+//! let mesh = Mesh::load("data/meshes/obj/spot.obj".as_ref())?;
+//! let v = voxelize_mesh(&mesh, &VoxelizeOptions::new(128, VoxelizeMode::Thin))?;
+//! assert_eq!(measure_voxelization(&v, MemoryLimit::DEFAULT)?.tunnel6, Some(false)); // exact tunnel check
+//! # let dir = std::env::temp_dir().join(format!("voxkit-lib-doc-{}", std::process::id()));
+//! # std::fs::create_dir_all(&dir).unwrap();
+//! # let path = dir.join("spot.binvox");
+//! voxkit::io::write_voxels(&path, &v.grid, &v.frame, true)?;
+//! # std::fs::remove_dir_all(&dir).unwrap();
+//! # Ok(())
+//! # }
+//! ```
+//!
 //! Sources: D. Cohen-Or and A. Kaufman, *3D Line Voxelization and Connectivity
 //! Control*, IEEE CG&A 17(6), 1997; J. Amanatides and A. Woo, *A Fast Voxel
 //! Traversal Algorithm for Ray Tracing*, Eurographics 1987; W. Kahan and
