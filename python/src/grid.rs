@@ -15,6 +15,7 @@ use rayon::prelude::*;
 use voxkit::grid::brick::BrickMask;
 use voxkit::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
 use voxkit::io::{read_voxels, write_voxels};
+use voxkit::voxelize::solid::InsideTest;
 use voxkit::mesh::FIT_SLACK;
 use voxkit::mesh::Mesh;
 use voxkit::metric::Connectivity;
@@ -172,6 +173,17 @@ fn mode_of(mode: &str) -> PyResult<VoxelizeMode> {
             )));
         }
     })
+}
+
+/// Solid mode's inside test by its command-line name.
+fn inside_of(inside: &str) -> PyResult<InsideTest> {
+    match inside {
+        "winding" => Ok(InsideTest::Winding),
+        "parity" => Ok(InsideTest::Parity),
+        _ => Err(value_error(format!(
+            "inside must be \"winding\" or \"parity\", got {inside:?}"
+        ))),
+    }
 }
 
 pub(crate) fn limit_of(max_memory_mib: u64) -> MemoryLimit {
@@ -448,7 +460,7 @@ pub fn load_mesh<'py>(py: Python<'py>, path: PathBuf) -> PyResult<MeshArrays<'py
 
 /// Voxelizes vertex and face arrays (see `voxkit.voxelize`).
 #[pyfunction]
-#[pyo3(signature = (vertices, faces, resolution = None, voxel_size = None, origin = None, mode = "thin", snap = false, max_memory_mib = 4096, threads = None))]
+#[pyo3(signature = (vertices, faces, resolution = None, voxel_size = None, origin = None, mode = "thin", snap = false, max_memory_mib = 4096, threads = None, inside = "winding"))]
 #[allow(clippy::too_many_arguments)]
 pub fn voxelize(
     py: Python<'_>,
@@ -461,8 +473,10 @@ pub fn voxelize(
     snap: bool,
     max_memory_mib: u64,
     threads: Option<usize>,
+    inside: &str,
 ) -> PyResult<Grid> {
     let mode = mode_of(mode)?;
+    let inside = inside_of(inside)?;
     let lattice = match (resolution, voxel_size) {
         (Some(_), Some(_)) => {
             return Err(value_error("give resolution or voxel_size, not both"));
@@ -486,6 +500,7 @@ pub fn voxelize(
     let mesh = convert::mesh(vertices, faces)?;
     let mut opts = VoxelizeOptions::on_lattice(lattice, mode);
     opts.snap = snap;
+    opts.inside = inside;
     opts.limit = limit_of(max_memory_mib);
     let v = run_threads(py, threads, || voxelize_mesh(&mesh, &opts))?;
     Ok(Grid::new(v.grid, v.frame, Some(v.stats), snap))

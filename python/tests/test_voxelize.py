@@ -43,6 +43,24 @@ def test_snap_identical_to_the_cli(cli, tmp_path):
     assert ours.read_bytes() == ref.read_bytes()
 
 
+@pytest.mark.parametrize("inside", ["winding", "parity"])
+def test_inside_test_identical_to_the_cli(cli, tmp_path, inside):
+    ref = tmp_path / "cli.binvox"
+    cli("voxelize", BUNNY, "-r", 48, "-o", ref, "--mode", "solid", "--inside", inside, "-q")
+    ours = tmp_path / "py.binvox"
+    voxkit.voxelize(*voxkit.load_mesh(BUNNY), resolution=48, mode="solid", inside=inside).save(ours)
+    assert ours.read_bytes() == ref.read_bytes()
+
+
+def test_inside_tests_agree_on_a_closed_mesh():
+    mesh = voxkit.load_mesh(SPOT)
+    winding = voxkit.voxelize(mesh, resolution=48, mode="solid", inside="winding")
+    parity = voxkit.voxelize(mesh, resolution=48, mode="solid", inside="parity")
+    assert np.array_equal(winding.indices(), parity.indices())
+    with pytest.raises(ValueError, match="inside"):
+        voxkit.voxelize(mesh, resolution=48, mode="solid", inside="vote")
+
+
 def test_load_mesh_arrays():
     v, f = voxkit.load_mesh(SPOT)
     assert v.dtype == np.float64 and v.ndim == 2 and v.shape[1] == 3 and v.flags.c_contiguous

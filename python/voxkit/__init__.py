@@ -259,6 +259,7 @@ def voxelize(
     snap: bool = False,
     max_memory_mib: int = 4096,
     threads: Optional[int] = None,
+    inside: str = "winding",
 ) -> VoxelGrid:
     """Voxelize a triangle mesh.
 
@@ -276,6 +277,9 @@ def voxelize(
     ``mode``: ``"thin"`` (6-tunnel-free surface), ``"thick"``
     (26-tunnel-free), ``"conservative"`` (exactly every voxel whose closed
     cube meets the surface), ``"solid"`` (surface and interior).
+    ``inside`` (solid only): ``"winding"`` (generalized winding number
+    ≥ ½, robust to holes, flipped faces and overlaps) or ``"parity"``
+    (crossing parity; exact for watertight meshes, fastest).
     ``snap=True`` rounds vertices to the voxel lattice (faster on some
     meshes, less exact); otherwise vertices are kept to 1/256 voxel.
     ``threads``: worker threads for this call (default: one per core, a pool
@@ -309,6 +313,7 @@ def voxelize(
         bool(snap),
         int(max_memory_mib),
         None if threads is None else int(threads),
+        inside,
     )
     return VoxelGrid(native)
 

@@ -36,6 +36,7 @@ def voxelize(
     snap: bool = False,
     max_memory_mib: int = 4096,
     threads: Optional[int] = None,
+    inside: str = "winding",
 ) -> Grid: ...
 def load_grid(path: str, max_memory_mib: int = 4096) -> Grid: ...
 def measure_indices(
