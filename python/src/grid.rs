@@ -15,7 +15,6 @@ use rayon::prelude::*;
 use voxkit::grid::brick::BrickMask;
 use voxkit::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
 use voxkit::io::{read_voxels, write_voxels};
-use voxkit::voxelize::solid::InsideTest;
 use voxkit::mesh::FIT_SLACK;
 use voxkit::mesh::Mesh;
 use voxkit::metric::Connectivity;
@@ -24,6 +23,7 @@ use voxkit::voxelize::measure::{ErrorMeasures, measure_external, measure_voxel_s
 use voxkit::voxelize::pipeline::{
     Lattice, VoxelizeMode, VoxelizeOptions, VoxelizeStats, quantize_mesh, voxelize_mesh,
 };
+use voxkit::voxelize::solid::InsideTest;
 
 use crate::{convert, run, run_threads, value_error};
 

@@ -161,11 +161,7 @@ impl Mesh {
     /// Loads a mesh, choosing the loader by extension: `.obj` ([`obj::load`]),
     /// `.gltf` / `.glb` ([`gltf::load`]).
     pub fn load(path: &Path) -> Result<Mesh> {
-        let ext = path
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase())
-            .unwrap_or_default();
-        match ext.as_str() {
+        match extension_of(path).as_str() {
             "obj" => obj::load(path),
             "gltf" | "glb" => gltf::load(path),
             _ => Err(VoxkitError::Unsupported(format!(
@@ -199,6 +195,28 @@ impl Mesh {
     pub fn triangle(&self, t: usize) -> [DVec3; 3] {
         self.triangles[t].map(|i| self.positions[i as usize])
     }
+}
+
+/// The file extensions (lower case, without the dot) that name a mesh
+/// format voxkit reads. Batch voxelization picks files by this list.
+pub const MESH_EXTENSIONS: &[&str] = &["obj", "gltf", "glb", "ply", "stl", "off"];
+
+/// Whether `path` has a mesh extension ([`MESH_EXTENSIONS`], any case).
+///
+/// ```
+/// use std::path::Path;
+/// assert!(voxkit::mesh::is_mesh_path(Path::new("scan.PLY")));
+/// assert!(!voxkit::mesh::is_mesh_path(Path::new("grid.binvox")));
+/// ```
+pub fn is_mesh_path(path: &Path) -> bool {
+    MESH_EXTENSIONS.contains(&extension_of(path).as_str())
+}
+
+/// The lower-case extension of `path` ("" when it has none).
+fn extension_of(path: &Path) -> String {
+    path.extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default()
 }
 
 /// A repeated index, or an exactly zero cross product of the edge vectors in
