@@ -217,7 +217,7 @@ fn converted_bundled_meshes_match_the_obj() {
         let faces = polys(&m);
 
         // f64 formats: exactly the OBJ's mesh.
-        let exact: Vec<(&str, Vec<u8>, fn(&[u8], &str) -> voxkit::Result<Mesh>)> = vec![
+        let exact: Vec<(&str, Vec<u8>, Parse)> = vec![
             ("off", write_off(&m.positions, &faces), off::parse),
             (
                 "ply ascii double",
@@ -246,7 +246,7 @@ fn converted_bundled_meshes_match_the_obj() {
         }
 
         // f32 formats: the OBJ's mesh rounded to f32.
-        let single: Vec<(&str, Vec<u8>, fn(&[u8], &str) -> voxkit::Result<Mesh>)> = vec![
+        let single: Vec<(&str, Vec<u8>, Parse)> = vec![
             (
                 "ply ascii float",
                 write_ply(&m.positions, &faces, PlyEnc::Ascii, false),
@@ -805,11 +805,11 @@ proptest! {
 /// A GLB (version 2) from a JSON document and an optional binary chunk.
 fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
     let mut j = json.as_bytes().to_vec();
-    while j.len() % 4 != 0 {
+    while !j.len().is_multiple_of(4) {
         j.push(b' ');
     }
     let mut b = bin.to_vec();
-    while b.len() % 4 != 0 {
+    while !b.len().is_multiple_of(4) {
         b.push(0);
     }
     let total = 12 + 8 + j.len() + if b.is_empty() { 0 } else { 8 + b.len() };
