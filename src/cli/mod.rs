@@ -8,6 +8,7 @@ use std::io::Write;
 
 use clap::{Parser, Subcommand};
 
+mod batch;
 mod check;
 mod demo;
 mod line;
@@ -22,7 +23,7 @@ pub use line::LineArgs;
 pub use measure::MeasureArgs;
 pub use render::RenderArgs;
 pub use triangle::TriangleArgs;
-pub use voxelize::{ModeArg, VoxelizeArgs};
+pub use voxelize::{FormatArg, ModeArg, VoxelizeArgs};
 
 /// Discrete 3D lines, voxelization and discrete ray casting.
 #[derive(Debug, Parser)]
