@@ -1,8 +1,12 @@
 //! `voxkit voxelize MESH (-r N | --voxel-size H [--origin X,Y,Z]) -o OUT [--mode thin|thick|conservative|solid] [--snap [--kahan-kelsen]] [--json] [--measure] [--force] [--max-memory MIB] [-q]`
 //!
-//! Loads an OBJ / glTF mesh, voxelizes it ([`voxelize_mesh`]) and writes a
+//! Loads a mesh, voxelizes it ([`voxelize_mesh`]) and writes a
 //! `.binvox`, `.vox`, `.npy` or `.nrrd` file (by extension). An existing
 //! output is refused without `--force` (exit 2, checked before any work).
+//!
+//! Several inputs, a directory or a glob pattern select batch mode
+//! (`voxkit voxelize DIR|GLOB|MESH… -o OUTDIR [--format FORMAT]`,
+//! [`super::batch`]), which takes the same options.
 //!
 //! `-r N` fits `N` voxels along the mesh's longest side; `--voxel-size H`
 //! puts the grid on the lattice of voxels of edge `H` whose corners include
