@@ -74,9 +74,10 @@
 //! this over splitting the budget evenly across workers because datasets mix
 //! a few large meshes with many small ones: an even split would refuse a
 //! large mesh that fits the whole budget, while the shared reservation lets
-//! small meshes run side by side and a large one run alone. Loading is not
-//! gated (its size is known only once parsed): at most one loaded mesh per
-//! worker waits for its reservation.
+//! small meshes run side by side and a large one run alone. Loading and
+//! quantizing are not gated (a mesh's size is known only once parsed): at
+//! most one loaded, quantized mesh per worker (counted in its reservation
+//! once admitted) waits outside the budget.
 
 use std::collections::{BTreeMap, HashMap};
 use std::io::{IsTerminal, Write};
