@@ -471,9 +471,13 @@ fn a_shared_lattice_puts_every_mesh_on_the_same_voxel_corners() {
     // Pairwise: origins differ by integer multiples of h, and the meshes'
     // own boxes differ by non-integers (so the lattice, not luck, did it).
     assert_eq!(origins.len(), 3);
-    for a in 0..3 {
-        let k = (origins[0][a] - origins[1][a]) / h;
-        assert!((k - k.round()).abs() < 1e-6, "axis {a}: {k}");
+    for (i, p) in origins.iter().enumerate() {
+        for q in &origins[i + 1..] {
+            for (x, y) in p.iter().zip(q) {
+                let k = (x - y) / h;
+                assert!((k - k.round()).abs() < 1e-6, "{p:?} - {q:?}: {k}");
+            }
+        }
     }
     let own = voxkit(&[
         "voxelize",
