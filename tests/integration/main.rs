@@ -1,6 +1,7 @@
 //! One integration test binary (one link under fat LTO); a module per concept.
 
 mod amanatides_woo;
+mod batch_cli;
 mod bricks;
 mod conservative;
 mod demo;
