@@ -45,8 +45,8 @@ pub enum Command {
     Line(LineArgs),
     /// Kahan–Kelsen indexing of the lattice points of a triangle.
     Triangle(TriangleArgs),
-    /// Voxelize a mesh into a voxel file, or many (directories, glob patterns)
-    /// into a folder.
+    /// Voxelize a mesh (OBJ / glTF / PLY / STL / OFF) into a voxel file, or many
+    /// (directories, glob patterns) into a folder.
     Voxelize(VoxelizeArgs),
     /// Check a voxel file's surface for N-tunnels (exit 1 if one exists).
     Check(CheckArgs),

@@ -10,6 +10,7 @@ mod images;
 mod lattice;
 mod line2d;
 mod lines;
+mod mesh_formats;
 mod mesh_io;
 mod raster;
 mod render;
