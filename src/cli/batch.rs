@@ -17,7 +17,8 @@
 //!   matching files with a mesh extension; the path relative to the
 //!   pattern's literal leading directories is mirrored the same way.
 //!   Matching directories are ignored; a pattern matching no mesh file is a
-//!   failure.
+//!   failure. Patterns are case-sensitive, as in the shell (`*.obj` does not
+//!   take `A.OBJ`; the directory walk does).
 //! * A file named explicitly is voxelized whatever its extension (an
 //!   unsupported one is a failure) and lands at `OUTDIR/<file name>`.
 //!
