@@ -34,8 +34,8 @@
 //! dependency fails that job only: one stderr line `voxkit: FILE: reason`
 //! (also with `--json`), and the batch goes on. An output that exists is
 //! skipped (not loaded) unless `--force`. Outputs are written atomically
-//! ([`crate::io::atomic_write`]); a job that panics has its temporary files
-//! removed, and temporary files that a killed run left beside this run's
+//! ([`crate::io::atomic_write`], which also removes its temporary file when a
+//! job panics while writing), and temporary files that a killed run left beside this run's
 //! outputs are removed at the start (Linux: those whose process is gone), so
 //! an interrupted run leaves only whole files and resumes where it stopped.
 //!
@@ -364,18 +364,17 @@ fn process(ctx: &Context, entry: &Entry) -> Outcome {
     if !ctx.args.force && output.exists() {
         return Outcome::Skipped;
     }
-    contained(output, || voxelize_one(ctx, &entry.input, output))
+    contained(|| voxelize_one(ctx, &entry.input, output))
 }
 
-/// Runs `job` for `output` under `catch_unwind`: a panic becomes a failure,
-/// and the temporary files a panicking writer left beside `output` are
-/// removed (a panic inside the writer skips `atomic_write`'s clean-up).
-fn contained(output: &Path, job: impl FnOnce() -> Result<serde_json::Value, String>) -> Outcome {
+/// Runs `job` under `catch_unwind`: a panic becomes a failure (a panic
+/// inside a writer leaves no temporary file: `atomic_write` removes it while
+/// unwinding).
+fn contained(job: impl FnOnce() -> Result<serde_json::Value, String>) -> Outcome {
     match catch_unwind(AssertUnwindSafe(job)) {
         Ok(Ok(json)) => Outcome::Done(json),
         Ok(Err(reason)) => Outcome::Failed(reason),
         Err(payload) => {
-            remove_temp_files(output, |pid| pid == std::process::id());
             let msg = payload
                 .downcast_ref::<&str>()
                 .map(|s| s.to_string())
@@ -677,7 +676,7 @@ mod tests {
         let out = dir.join("a.binvox");
         let hook = std::panic::take_hook();
         std::panic::set_hook(Box::new(|_| {}));
-        let outcome = contained(&out, || {
+        let outcome = contained(|| {
             crate::io::atomic_write(&out, false, |w| {
                 w.write_all(b"partial")?;
                 panic!("writer bug");

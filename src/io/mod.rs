@@ -64,17 +64,28 @@ where
             path: tmp.clone(),
             source: e,
         })?;
-    let result = (|| {
-        let mut w = BufWriter::new(file);
-        fill(&mut w)?;
-        let file = w.into_inner().map_err(|e| io_err(e.into_error()))?;
-        file.sync_all().map_err(io_err)?;
-        fs::rename(&tmp, path).map_err(io_err)
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
+    // Removes the temporary file on every way out but the rename: an error,
+    // and also a panic unwinding through `fill` (batch mode catches those
+    // per mesh and goes on, so nothing may be left behind).
+    let mut cleanup = RemoveOnDrop(Some(tmp.clone()));
+    let mut w = BufWriter::new(file);
+    fill(&mut w)?;
+    let file = w.into_inner().map_err(|e| io_err(e.into_error()))?;
+    file.sync_all().map_err(io_err)?;
+    fs::rename(&tmp, path).map_err(io_err)?;
+    cleanup.0 = None;
+    Ok(())
+}
+
+/// Deletes the file it holds when dropped (see [`atomic_write`]).
+struct RemoveOnDrop(Option<PathBuf>);
+
+impl Drop for RemoveOnDrop {
+    fn drop(&mut self) {
+        if let Some(path) = self.0.take() {
+            let _ = fs::remove_file(path);
+        }
     }
-    result
 }
 
 /// A temporary name beside `path`: same directory (so the rename is atomic),
@@ -100,5 +111,28 @@ impl From<std::io::Error> for VoxkitError {
             path: PathBuf::new(),
             source,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A panic inside the writer must not leave the temporary file.
+    #[test]
+    fn panicking_writer_leaves_no_temporary_file() {
+        let dir = std::env::temp_dir().join(format!("voxkit-aw-panic-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("out.bin");
+        let outcome = std::panic::catch_unwind(|| {
+            atomic_write(&path, false, |w| {
+                w.write_all(&[1u8; 1 << 16])?;
+                panic!("writer failed");
+            })
+        });
+        assert!(outcome.is_err());
+        let left: Vec<_> = fs::read_dir(&dir).unwrap().collect();
+        assert!(left.is_empty(), "left behind: {left:?}");
+        fs::remove_dir_all(&dir).unwrap();
     }
 }
