@@ -11,7 +11,7 @@
 //! | [`line`] | 3D lines (26, 18, tripod 6, Amanatides–Woo, adaptive) and 2D lines |
 //! | [`metric`] | the discrete distances d6, d18, d26 |
 //! | [`render`] | the discrete ray caster: 6 / 26 / adaptive / Amanatides–Woo rays, empty-space skipping |
-//! | [`report`] | speed against error of every line algorithm (what `voxkit demo` prints) |
+//! | [`report`] | speed against error: the line measurements `voxkit demo` prints, and the full report `voxkit report` writes |
 //! | [`topology`] | oracles: connectivity, containment, touching |
 //! | [`io`] | atomic file writes; voxel files: binvox, MagicaVoxel .vox, .npy, NRRD |
 //! | [`mesh`] | triangle meshes + polylines; OBJ and glTF 2.0 loaders; grid fitting |
