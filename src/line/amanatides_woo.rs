@@ -740,9 +740,8 @@ impl AwLineF32 {
 
     /// The voxel the traversal ends in (what it reaches after every step).
     pub fn end_voxel(&self) -> Voxel {
-        let v: [i64; 3] = std::array::from_fn(|i| {
-            self.voxel[i] + self.sign[i] * self.remaining[i] as i64
-        });
+        let v: [i64; 3] =
+            std::array::from_fn(|i| self.voxel[i] + self.sign[i] * self.remaining[i] as i64);
         Voxel::new(v[0] as i32, v[1] as i32, v[2] as i32)
     }
 }
@@ -830,16 +829,16 @@ mod tests {
 #[cfg(test)]
 mod f32_tests {
     use super::*;
-    use crate::line::{Segment, Tripod6};
     use proptest::prelude::*;
 
     proptest! {
-        /// Where single precision is exact, f32 = f64 = the exact tripod:
+        /// Where single precision is exact, f32 = f64 (the voxels, tie rule
+        /// included):
         /// endpoints on the quarter-voxel lattice within ±64 make every
         /// crossing time a ratio of integers below 2^10, so distinct times
         /// differ by far more than an f32 ulp and ties are exact in both.
         #[test]
-        fn f32_equals_f64_and_tripod_on_short_quarter_lattice_rays(
+        fn f32_equals_f64_on_short_quarter_lattice_rays(
             a in proptest::array::uniform3(-256i32..256),
             b in proptest::array::uniform3(-256i32..256),
         ) {
@@ -850,9 +849,7 @@ mod f32_tests {
                 DVec3::from_array(a).as_vec3(),
                 DVec3::from_array(b).as_vec3(),
             ).unwrap().collect();
-            let tripod: Vec<Voxel> = Tripod6::new(&Segment::from_f64(a, b).unwrap()).collect();
             prop_assert_eq!(&f32_line, &f64_line);
-            prop_assert_eq!(&f32_line, &tripod);
         }
     }
 

@@ -89,13 +89,17 @@ impl ReportSettings {
             },
             Tier::Full => ReportSettings {
                 tier,
+                // 20,000 64-voxel segments in a 512³ grid: the bench's
+                // `grid512` setting (`cargo bench --bench lines -- grid512`).
                 lines: LineReportConfig {
+                    grid: 512,
                     reps: 7,
                     ..LineReportConfig::default()
                 },
                 long_ray_lengths: vec![1_000, 10_000, 100_000, 1_000_000],
                 long_rays: 24,
-                fat_radii: vec![10, 30, 100, 300, 1000],
+                // 70 and 700: the bench's fat_1e4 and fat_1e6.
+                fat_radii: vec![10, 30, 70, 300, 700],
                 skinny_sides: vec![100, 1_000, 10_000, 100_000, 1_000_000],
                 triangle_reps: 7,
                 triangle_batch_s: 0.01,

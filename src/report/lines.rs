@@ -213,7 +213,10 @@ pub fn section(
             front: None,
         },
     )?);
-    debug_assert!(rows.iter().any(|r| r.algorithm == LineAlgorithm::AmanatidesWoo));
+    debug_assert!(
+        rows.iter()
+            .any(|r| r.algorithm == LineAlgorithm::AmanatidesWoo)
+    );
 
     md.push_str(&format!(
         "\n### Amanatides–Woo in f32 and f64 against the exact tripod line, long rays\n\n\

@@ -71,10 +71,7 @@ fn drawable(chart: &Chart, s: &Series) -> Vec<(f64, f64)> {
         .iter()
         .copied()
         .filter(|&(x, y)| {
-            x.is_finite()
-                && y.is_finite()
-                && (!chart.log_x || x > 0.0)
-                && (!chart.log_y || y > 0.0)
+            x.is_finite() && y.is_finite() && (!chart.log_x || x > 0.0) && (!chart.log_y || y > 0.0)
         })
         .collect()
 }
@@ -96,11 +93,19 @@ fn axis_range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
         (10f64.powf(l - pad), 10f64.powf(h + pad))
     } else if hi - lo <= f64::EPSILON * hi.abs().max(1.0) {
         let pad = if lo == 0.0 { 1.0 } else { lo.abs() * 0.5 };
-        let lo = if lo >= 0.0 { (lo - pad).max(0.0) } else { lo - pad };
+        let lo = if lo >= 0.0 {
+            (lo - pad).max(0.0)
+        } else {
+            lo - pad
+        };
         (lo, hi + pad)
     } else {
         let pad = (hi - lo) * 0.08;
-        let lo = if lo >= 0.0 { (lo - pad).max(0.0) } else { lo - pad };
+        let lo = if lo >= 0.0 {
+            (lo - pad).max(0.0)
+        } else {
+            lo - pad
+        };
         (lo, hi + pad)
     }
 }
@@ -118,8 +123,9 @@ pub fn render_svg(chart: &Chart) -> Result<String> {
             .flat_map(|s| drawable(chart, s))
             .map(|p| f(&p))
             .collect();
-        let (lo, hi) = axis_range(vals.into_iter(), log);
-        !log || hi / lo >= 10.0
+        let lo = vals.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = vals.iter().copied().fold(0.0, f64::max);
+        !log || vals.is_empty() || hi / lo >= 10.0
     };
     chart.log_x = chart.log_x && spans_decade(true, |p| p.0, &chart);
     chart.log_y = chart.log_y && spans_decade(true, |p| p.1, &chart);

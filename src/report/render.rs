@@ -12,8 +12,8 @@ use crate::grid::MemoryLimit;
 use crate::mesh::Mesh;
 use crate::render::measure::{MeshImageError, against_mesh};
 use crate::render::{
-    GridTransform, OccupancyGrid, RayKind, RenderImage, RenderOptions, RenderStats,
-    default_camera, render_grid,
+    GridTransform, OccupancyGrid, RayKind, RenderImage, RenderOptions, RenderStats, default_camera,
+    render_grid,
 };
 use crate::voxelize::pipeline::{VoxelizeMode, VoxelizeOptions, voxelize_mesh};
 

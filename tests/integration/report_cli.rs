@@ -29,7 +29,10 @@ fn table(md: &str, header: &str) -> Vec<Vec<String>> {
         .take_while(|l| l.starts_with('|'))
         .map(|l| {
             assert_eq!(l.matches('|').count(), width, "ragged row {l}");
-            l.trim_matches('|').split('|').map(|c| c.trim().to_string()).collect()
+            l.trim_matches('|')
+                .split('|')
+                .map(|c| c.trim().to_string())
+                .collect()
         })
         .collect()
 }
@@ -48,9 +51,21 @@ fn number(cell: &str) -> f64 {
 fn check_svg(path: &Path) {
     let svg = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let start = svg.trim_start();
-    assert!(start.starts_with("<svg") || start.starts_with("<?xml"), "{}", path.display());
-    assert!(svg.trim_end().ends_with("</svg>"), "{} truncated", path.display());
-    assert!(svg.contains("<circle"), "{} has no data points", path.display());
+    assert!(
+        start.starts_with("<svg") || start.starts_with("<?xml"),
+        "{}",
+        path.display()
+    );
+    assert!(
+        svg.trim_end().ends_with("</svg>"),
+        "{} truncated",
+        path.display()
+    );
+    assert!(
+        svg.contains("<circle"),
+        "{} has no data points",
+        path.display()
+    );
     assert!(!svg.contains("NaN"), "{}", path.display());
 }
 
@@ -59,19 +74,36 @@ fn quick_report_has_every_table_row_and_plot() {
     let dir = temp_dir("report-test");
     let md_path = dir.join("r.md");
     let out = voxkit(&["report", "--quick", "-q", "-o", md_path.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let md = std::fs::read_to_string(&md_path).unwrap();
     for word in ["NaN", "| inf", "inf |"] {
         assert!(!md.contains(word), "{word} in the report");
     }
-    for section in ["## Machine", "## Lines", "## Triangle indexing", "## Voxelization", "## Rendering", "## Numerical stability"] {
+    for section in [
+        "## Machine",
+        "## Lines",
+        "## Triangle indexing",
+        "## Voxelization",
+        "## Rendering",
+        "## Numerical stability",
+    ] {
         assert!(md.contains(section), "missing {section}");
     }
 
     // Lines: every algorithm; the exact lines are connected, touch only
     // touched voxels, and the tripod covers every segment.
     let lines = table(&md, "| algorithm | voxels/line | M voxels/s |");
-    for name in ["26-line", "18-line", "tripod 6-line", "Amanatides-Woo", "adaptive 26/6"] {
+    for name in [
+        "26-line",
+        "18-line",
+        "tripod 6-line",
+        "Amanatides-Woo",
+        "adaptive 26/6",
+    ] {
         let r = rows_named(&lines, name);
         assert_eq!(r.len(), 1, "{name}");
         for cell in &r[0][1..] {
@@ -122,7 +154,11 @@ fn quick_report_has_every_table_row_and_plot() {
         }
     }
     for mesh in ["spot.obj", "stanford-bunny.obj"] {
-        assert_eq!(md.matches(&format!("**Pareto front, {mesh}**")).count(), 2, "{mesh}");
+        assert_eq!(
+            md.matches(&format!("**Pareto front, {mesh}**")).count(),
+            2,
+            "{mesh}"
+        );
     }
 
     // Rendering: every ray kind with and without skipping; the 6-ray is the
@@ -165,13 +201,28 @@ fn bad_output_paths_exit_2() {
     let dir = temp_dir("report-bad-o");
     // A directory.
     let out = voxkit(&["report", "--quick", "-o", dir.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(String::from_utf8_lossy(&out.stderr).contains("directory"));
     // Under a regular file: no directory can be made there.
     let file = dir.join("file.txt");
     std::fs::write(&file, "x").unwrap();
-    let out = voxkit(&["report", "--quick", "-o", file.join("r.md").to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = voxkit(&[
+        "report",
+        "--quick",
+        "-o",
+        file.join("r.md").to_str().unwrap(),
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_eq!(String::from_utf8_lossy(&out.stderr).lines().count(), 1);
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "x");
     let _ = std::fs::remove_dir_all(&dir);
