@@ -12,7 +12,7 @@
 //! | [`line`] | 3D lines (26, 18, tripod 6, Amanatides–Woo, adaptive) and 2D lines |
 //! | [`metric`] | the discrete distances d6, d18, d26 |
 //! | [`render`] | the discrete ray caster: 6 / 26 / adaptive / Amanatides–Woo rays, empty-space skipping |
-//! | [`report`] | speed against error of every line algorithm (what `voxkit demo` prints) |
+//! | [`report`] | speed against error: the line measurements `voxkit demo` prints, and the full report `voxkit report` writes |
 //! | [`stability`] | the numerical-stability suite: hard inputs against exact oracles |
 //! | [`topology`] | oracles: connectivity, containment, touching |
 //! | [`io`] | atomic file writes; voxel files: binvox, MagicaVoxel .vox, .npy, NRRD |

@@ -1782,12 +1782,15 @@ fn damaged_meshes_solid(tier: Tier) -> Outcome {
 fn spot_scaled_and_offset(tier: Tier) -> Outcome {
     let mut f = Failures::default();
     let res = tier.pick(128, 512);
-    let Ok(spot) = Mesh::load("data/meshes/obj/spot.obj".as_ref()) else {
-        return Outcome {
-            expectation: "data/meshes/obj/spot.obj loads".into(),
-            observed: "not found (run from the repository root)".into(),
-            passed: false,
-        };
+    let spot = match crate::mesh::bundled::spot() {
+        Ok(spot) => spot,
+        Err(e) => {
+            return Outcome {
+                expectation: "the bundled Spot loads".into(),
+                observed: e.to_string(),
+                passed: false,
+            };
+        }
     };
     let opts = VoxelizeOptions::new(res, VoxelizeMode::Thin);
     let base = voxelize_mesh(&spot, &opts).expect("unit spot");

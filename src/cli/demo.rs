@@ -23,10 +23,6 @@ use crate::report::{LineReportConfig, line_report};
 use crate::voxelize::measure::measure_voxelization;
 use crate::voxelize::pipeline::{Voxelization, VoxelizeMode, VoxelizeOptions, voxelize_mesh};
 
-/// The bundled mesh: Spot by Keenan Crane (CC0), embedded so the demo runs
-/// from any directory.
-const SPOT_OBJ: &str = include_str!("../../data/meshes/obj/spot.obj");
-
 /// The modes the demo runs, in table order.
 const MODES: [VoxelizeMode; 4] = [
     VoxelizeMode::Thin,
@@ -109,7 +105,7 @@ pub fn run(args: DemoArgs, out: &mut dyn Write) -> Result<(), CliError> {
     steps.start("lines");
     lines_demo(&args, out)?;
     steps.done();
-    let mesh = crate::mesh::obj::parse_str(SPOT_OBJ, "spot.obj (bundled)")?;
+    let mesh = crate::mesh::bundled::spot()?;
     let thin = voxelize_demo(&args, &mesh, &steps, out)?;
     render_demo(&args, &thin, &mesh, &steps, out)?;
     drop(steps);

@@ -15,6 +15,7 @@ mod demo;
 mod line;
 mod measure;
 mod render;
+mod report;
 mod triangle;
 mod voxelize;
 
@@ -23,6 +24,7 @@ pub use demo::DemoArgs;
 pub use line::LineArgs;
 pub use measure::MeasureArgs;
 pub use render::RenderArgs;
+pub use report::ReportArgs;
 pub use triangle::TriangleArgs;
 pub use voxelize::{FormatArg, ModeArg, VoxelizeArgs};
 
@@ -54,6 +56,9 @@ pub enum Command {
     Measure(MeasureArgs),
     /// Render a voxel file, a mesh or a scalar volume with discrete rays (PNG, EXR, GIF).
     Render(RenderArgs),
+    /// Run every measurement and write one Markdown report with SVG plots
+    /// (speed beside error; `--quick` for the one-minute version).
+    Report(ReportArgs),
 }
 
 /// A command-line failure: the message for stderr and the exit code.
@@ -97,6 +102,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<(), CliError> {
         Command::Check(args) => check::run(args, out),
         Command::Measure(args) => measure::run(args, out),
         Command::Render(args) => render::run(args, out),
+        Command::Report(args) => report::run(args, out),
     }
 }
 

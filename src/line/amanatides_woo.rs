@@ -653,6 +653,133 @@ where
     }))
 }
 
+/// The Amanatides–Woo traversal in `f32`, as a GPU or an `f32` ray caster
+/// would run it: the same rules as [`aw_line`] (recomputed crossing times,
+/// step counts fixed up front, ties y, z, x), every float in single
+/// precision. A separate type so that the `f64` traversal the ray caster
+/// uses is untouched; it exists to measure what single precision costs
+/// (`voxkit report`: voxels differing from the exact tripod line on long
+/// rays). Endpoints must be finite and within `±2^24` (where `f32` still
+/// resolves whole voxels); otherwise [`VoxkitError::Invalid`].
+///
+/// ```
+/// use glam::{IVec3, Vec3};
+/// use voxkit::line::amanatides_woo::aw_line_f32;
+/// let voxels: Vec<IVec3> = aw_line_f32(Vec3::ZERO, Vec3::new(2.0, 1.0, 0.0)).unwrap().collect();
+/// let expected = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [2, 1, 0]].map(IVec3::from_array);
+/// assert_eq!(voxels, expected);
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct AwLineF32 {
+    voxel: [i64; 3],
+    sign: [i64; 3],
+    origin: [f32; 3],
+    dir: [f32; 3],
+    remaining: [u32; 3],
+    t_next: [f32; 3],
+    pending: bool,
+}
+
+/// Largest coordinate magnitude [`aw_line_f32`] accepts: `2^24`, beyond
+/// which consecutive `f32` values are more than a voxel apart.
+pub const F32_MAX_COORD: f32 = (1u32 << 24) as f32;
+
+/// The single-precision Amanatides–Woo voxels of `a–b` (grid space); see
+/// [`AwLineF32`].
+pub fn aw_line_f32(a: glam::Vec3, b: glam::Vec3) -> Result<AwLineF32> {
+    for (p, name) in [(a, "start"), (b, "end")] {
+        if !p.is_finite() || p.abs().max_element() > F32_MAX_COORD {
+            return Err(VoxkitError::invalid(format!(
+                "Amanatides–Woo (f32): {name} {p} is not finite or outside ±2^24"
+            )));
+        }
+    }
+    let voxel_of = |p: glam::Vec3| [p.x, p.y, p.z].map(|c| (c + 0.5).floor() as i64);
+    let (v0, v1) = (voxel_of(a), voxel_of(b));
+    let dir = (b - a).to_array();
+    let mut line = AwLineF32 {
+        voxel: v0,
+        sign: dir.map(|d| {
+            if d > 0.0 {
+                1
+            } else if d < 0.0 {
+                -1
+            } else {
+                0
+            }
+        }),
+        origin: a.to_array(),
+        dir,
+        remaining: [0; 3],
+        t_next: [f32::INFINITY; 3],
+        pending: true,
+    };
+    for i in 0..3 {
+        // fl(b − a) has the sign of b − a and rounding c + ½ is monotonic,
+        // so an axis with steps always has a direction; guarded regardless.
+        line.remaining[i] = if line.sign[i] == 0 {
+            0
+        } else {
+            (v1[i] - v0[i]).unsigned_abs() as u32
+        };
+        line.refresh(i);
+    }
+    Ok(line)
+}
+
+impl AwLineF32 {
+    #[inline(always)]
+    fn refresh(&mut self, i: usize) {
+        self.t_next[i] = if self.remaining[i] == 0 {
+            f32::INFINITY
+        } else {
+            let face = self.voxel[i] as f32 + 0.5 * self.sign[i] as f32;
+            (face - self.origin[i]) / self.dir[i]
+        };
+    }
+
+    /// The voxel the traversal ends in (what it reaches after every step).
+    pub fn end_voxel(&self) -> Voxel {
+        let v: [i64; 3] =
+            std::array::from_fn(|i| self.voxel[i] + self.sign[i] * self.remaining[i] as i64);
+        Voxel::new(v[0] as i32, v[1] as i32, v[2] as i32)
+    }
+}
+
+impl Iterator for AwLineF32 {
+    type Item = Voxel;
+
+    #[inline]
+    fn next(&mut self) -> Option<Voxel> {
+        if !self.pending {
+            let [tx, ty, tz] = self.t_next;
+            let axis = if ty <= tx && ty <= tz {
+                1
+            } else if tz <= tx {
+                2
+            } else {
+                0
+            };
+            if self.remaining[axis] == 0 {
+                return None;
+            }
+            self.voxel[axis] += self.sign[axis];
+            self.remaining[axis] -= 1;
+            self.refresh(axis);
+        }
+        self.pending = false;
+        let v = self.voxel;
+        Some(Voxel::new(v[0] as i32, v[1] as i32, v[2] as i32))
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        let n = self.remaining.iter().map(|&r| r as usize).sum::<usize>() + self.pending as usize;
+        (n, Some(n))
+    }
+}
+
+impl ExactSizeIterator for AwLineF32 {}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -696,5 +823,46 @@ mod tests {
             assert_eq!(got, want, "round {round}");
         }
         assert!(jumped > 2500, "{jumped}");
+    }
+}
+
+#[cfg(test)]
+mod f32_tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Where single precision is exact, f32 = f64 (the voxels, tie rule
+        /// included):
+        /// endpoints on the quarter-voxel lattice within ±64 make every
+        /// crossing time a ratio of integers below 2^10, so distinct times
+        /// differ by far more than an f32 ulp and ties are exact in both.
+        #[test]
+        fn f32_equals_f64_on_short_quarter_lattice_rays(
+            a in proptest::array::uniform3(-256i32..256),
+            b in proptest::array::uniform3(-256i32..256),
+        ) {
+            let q = |p: [i32; 3]| p.map(|c| c as f64 / 4.0);
+            let (a, b) = (q(a), q(b));
+            let f64_line: Vec<Voxel> = aw_line(DVec3::from_array(a), DVec3::from_array(b)).unwrap().collect();
+            let f32_line: Vec<Voxel> = aw_line_f32(
+                DVec3::from_array(a).as_vec3(),
+                DVec3::from_array(b).as_vec3(),
+            ).unwrap().collect();
+            prop_assert_eq!(&f32_line, &f64_line);
+        }
+    }
+
+    /// Out-of-range and non-finite endpoints are refused, not walked.
+    #[test]
+    fn f32_rejects_bad_endpoints() {
+        use glam::Vec3;
+        assert!(aw_line_f32(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::ZERO).is_err());
+        assert!(aw_line_f32(Vec3::ZERO, Vec3::splat(f32::INFINITY)).is_err());
+        assert!(aw_line_f32(Vec3::ZERO, Vec3::new(3.0e7, 0.0, 0.0)).is_err());
+        let far = Vec3::new(F32_MAX_COORD, -F32_MAX_COORD, 0.5);
+        let line = aw_line_f32(Vec3::ZERO, far).unwrap();
+        assert_eq!(line.len() as u64, 1 + 2 * (1u64 << 24) + 1);
+        assert_eq!(line.end_voxel(), Voxel::new(1 << 24, -(1 << 24), 1));
     }
 }

@@ -30,6 +30,7 @@
 //! rounding of, the max face). With `padding > 0` ([`fit_frame_padded`]) the
 //! rule is not needed: voxel `dims - padding` lies inside the grid.
 
+pub mod bundled;
 pub mod gltf;
 pub mod obj;
 pub mod off;

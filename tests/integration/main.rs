@@ -16,6 +16,7 @@ mod raster;
 mod render;
 mod render_cli;
 mod render_volume;
+mod report_cli;
 mod solid;
 mod strategies;
 mod topology;

@@ -1,4 +1,7 @@
-//! Speed against error: the measurements `voxkit demo` prints.
+//! Speed against error: the measurements `voxkit demo` prints (this file)
+//! and the full report `voxkit report` writes ([`document`], one submodule
+//! per area: [`lines`], [`triangles`], [`voxelize`], [`render`]; the
+//! machine in [`machine`], timing rules in [`timing`], plots in [`plot`]).
 //!
 //! Every line algorithm is timed on the same seeded random segments, walking
 //! a dense grid and writing each voxel, and judged by the exact oracles of
@@ -25,6 +28,15 @@ use crate::line::{
     walk, walk_mut,
 };
 use crate::topology::{covers_segment, first_untouched, is_connected_path};
+
+pub mod document;
+pub mod lines;
+pub mod machine;
+pub mod plot;
+pub mod render;
+pub mod timing;
+pub mod triangles;
+pub mod voxelize;
 
 /// The line algorithms of the engine.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -78,6 +90,12 @@ pub struct LineRow {
     pub containment: f64,
     /// Share of lines that are paths of the algorithm's connectivity.
     pub connected: f64,
+    /// Largest Euclidean distance from a listed voxel's centre to the
+    /// continuous segment, in voxels (√3/2 ≈ 0.866 for a voxel the segment
+    /// only touches at a corner; more means a voxel the segment misses).
+    pub max_distance: f64,
+    /// Relative spread `(max − min) / median` of the timed passes.
+    pub time_spread: f64,
     /// For A–W: share of lines whose voxels differ from the exact tripod
     /// line; for the adaptive ray: share of rays whose first occupied voxel
     /// differs from the tripod line's. Zero for the exact lines.
@@ -97,6 +115,9 @@ pub struct LineReportConfig {
     pub grid: usize,
     /// Random seed.
     pub seed: u64,
+    /// Timed passes over all segments (after one warm-up pass); the
+    /// median is reported.
+    pub reps: usize,
 }
 
 impl Default for LineReportConfig {
@@ -107,6 +128,7 @@ impl Default for LineReportConfig {
             length: 64.0,
             grid: 256,
             seed: 42,
+            reps: 3,
         }
     }
 }
@@ -139,7 +161,7 @@ pub fn random_segments(n: usize, length: f64, grid: usize, seed: u64) -> Result<
     Ok(out)
 }
 
-fn endpoints_f64(s: &Segment) -> (DVec3, DVec3) {
+pub(crate) fn endpoints_f64(s: &Segment) -> (DVec3, DVec3) {
     let p = |q: [i64; 3]| {
         DVec3::new(
             fixed::to_f64(q[0]),
@@ -200,10 +222,10 @@ pub fn line_report(cfg: &LineReportConfig) -> Result<Vec<LineRow>> {
 
     let mut rows = Vec::new();
     for algorithm in LineAlgorithm::ALL {
-        // Speed: best of three passes over all segments.
-        let mut best = f64::INFINITY;
+        // Speed: a warm-up pass, then the median of `reps` timed passes.
+        let mut passes = Vec::new();
         let mut visited = 0u64;
-        for _ in 0..3 {
+        for pass in 0..=cfg.reps.max(1) {
             visited = 0;
             let t0 = Instant::now();
             for s in &segs {
@@ -233,16 +255,27 @@ pub fn line_report(cfg: &LineReportConfig) -> Result<Vec<LineRow>> {
                     visited += n;
                 }
             }
-            best = best.min(t0.elapsed().as_secs_f64());
+            if pass > 0 {
+                passes.push(t0.elapsed().as_secs_f64());
+            }
         }
+        let spread = passes.iter().copied().fold(0.0, f64::max)
+            - passes.iter().copied().fold(f64::INFINITY, f64::min);
+        let seconds = timing::median(&mut passes);
 
         // Error measures with the exact oracles.
         let conn = connectivity_of(algorithm);
         let (mut voxels, mut untouched, mut contained, mut connected, mut mismatched) =
             (0u64, 0u64, 0u64, 0u64, 0u64);
+        let mut max_distance = 0.0f64;
         for s in judged {
             let path = voxels_of(algorithm, s)?;
             voxels += path.len() as u64;
+            let (a, b) = endpoints_f64(s);
+            for v in &path {
+                let d = crate::voxelize::measure::point_segment_distance(v.as_dvec3(), a, b);
+                max_distance = max_distance.max(d);
+            }
             untouched += path
                 .iter()
                 .filter(|&&v| first_untouched(s.a(), s.b(), &[v]).is_some())
@@ -261,11 +294,13 @@ pub fn line_report(cfg: &LineReportConfig) -> Result<Vec<LineRow>> {
         rows.push(LineRow {
             algorithm,
             voxels_per_line: voxels as f64 / n,
-            voxels_per_second: visited as f64 / best,
+            voxels_per_second: visited as f64 / seconds,
             untouched: untouched as f64 / voxels.max(1) as f64,
             containment: contained as f64 / n,
             connected: connected as f64 / n,
             mismatch: mismatched as f64 / n,
+            max_distance,
+            time_spread: spread / seconds,
         });
     }
     Ok(rows)
@@ -308,6 +343,7 @@ mod tests {
             length: 20.0,
             grid: 48,
             seed: 3,
+            reps: 1,
         };
         let rows = line_report(&cfg).unwrap();
         assert_eq!(rows.len(), LineAlgorithm::ALL.len());
@@ -316,7 +352,10 @@ mod tests {
             assert!(r.voxels_per_second > 0.0);
             if r.algorithm != LineAlgorithm::AmanatidesWoo {
                 assert_eq!(r.untouched, 0.0, "{r:?}");
+                // A touched voxel's centre is within half its diagonal.
+                assert!(r.max_distance <= 0.75f64.sqrt() + 1e-9, "{r:?}");
             }
+            assert!(r.max_distance > 0.0 && r.max_distance.is_finite());
         }
         let tripod = rows
             .iter()
