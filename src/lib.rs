@@ -53,6 +53,8 @@ pub mod camera;
 pub mod cli;
 pub mod error;
 pub mod fixed;
+#[doc(hidden)]
+pub mod fuzz_entry;
 pub mod grid;
 mod hint;
 pub mod io;

@@ -10,7 +10,7 @@ use clap::{Parser, Subcommand};
 
 mod check;
 mod demo;
-mod line;
+pub mod line;
 mod measure;
 mod render;
 mod triangle;
