@@ -114,5 +114,70 @@ def vox():
     put("vox", "scene", b"VOX " + struct.pack("<i", 150) + chunk(b"MAIN", b"", body))
 
 
-for f in (obj, binvox, npy, nrrd, vox):
+SEP = b"\n@@DATA@@\n"  # voxkit::fuzz_entry::DATA_SEPARATOR
+
+
+def samples(fmt):
+    return struct.pack("<%d%s" % (len(OCC), fmt), *[v * 3 + (-1 if fmt.islower() else 1) for v in OCC])
+
+
+def volume_nrrd():
+    base = "NRRD0004\ntype: %s\ndimension: 3\nsizes: 3 2 2\n"
+    put("volume_nrrd", "raw_i16", (base % "short" + "endian: little\nencoding: raw\n"
+        "space directions: (1,0,0) (0,2,0) (0,0.5,1)\nspace origin: (1,2,3)\n\n").encode() + samples("h"))
+    put("volume_nrrd", "gzip_f32", (base % "float" + "endian: big\nencoding: gzip\nspacings: 1 1 2\n\n").encode()
+        + gzip.compress(struct.pack(">12f", *[float(v) for v in OCC])))
+    put("volume_nrrd", "ascii_u8", (base % "uchar" + "encoding: ascii\n\n" + " ".join(map(str, OCC))).encode())
+    put("volume_nrrd", "detached_u16", (base % "ushort" + "endian: little\nencoding: raw\nbyte skip: -1\n"
+        "data file: d.raw\n").encode() + SEP + b"junk" + samples("H"))
+    put("volume_nrrd", "detached_list", (base % "int8" + "encoding: raw\nline skip: 1\ndata file: LIST 2\na.raw\nb.raw\n").encode()
+        + SEP + b"skip me\n" + bytes(OCC[:6]))
+    put("volume_nrrd", "detached_pattern", (base % "uint" + "endian: little\nencoding: raw\n"
+        "data file: s%03d.raw 1 2 1\n").encode() + SEP + struct.pack("<6I", *range(6)))
+
+
+def volume_meta():
+    base = "ObjectType = Image\nNDims = 3\nDimSize = 3 2 2\nElementSpacing = 1 1 2\nOffset = 0 1 2\n"
+    put("volume_meta", "mha_raw", (base + "ElementType = MET_SHORT\nElementDataFile = LOCAL\n").encode() + samples("h"))
+    put("volume_meta", "mha_zlib", (base + "ElementType = MET_FLOAT\nBinaryDataByteOrderMSB = True\nCompressedData = True\n"
+        "TransformMatrix = 0 1 0 1 0 0 0 0 1\nElementDataFile = LOCAL\n").encode()
+        + zlib.compress(struct.pack(">12f", *[float(v) for v in OCC])))
+    put("volume_meta", "mha_text", (base + "BinaryData = False\nElementType = MET_DOUBLE\nElementDataFile = LOCAL\n"
+        + ", ".join(str(v * 0.5) for v in OCC)).encode())
+    put("volume_meta", "mhd_raw", (base + "ElementType = MET_UCHAR\nHeaderSize = -1\nElementDataFile = v.raw\n").encode()
+        + SEP + b"hdr" + bytes(OCC))
+    put("volume_meta", "mhd_list", (base + "ElementType = MET_CHAR\nElementDataFile = LIST 2D\na.raw\nb.raw\n").encode()
+        + SEP + bytes(OCC[:6]))
+    put("volume_meta", "mhd_pattern", (base + "ElementType = MET_UINT\nElementDataFile = s%d.raw 0 1 1\n").encode()
+        + SEP + struct.pack("<6I", *range(6)))
+
+
+def volume_npy():
+    for descr, fmt in [("<i2", "<12h"), (">u2", ">12H"), ("<i4", "<12i"), ("<u4", "<12I"),
+                       ("<f4", "<12f"), (">f8", ">12d"), ("|i1", "12b")]:
+        vals = [v * 3 - 1 for v in c_order(OCC)]
+        if "u" in descr:
+            vals = [abs(v) for v in vals]
+        put("volume_npy", descr.replace("<", "le_").replace(">", "be_").replace("|", ""),
+            npy_bytes(descr, DIMS, struct.pack(fmt, *vals)))
+    put("volume_npy", "b1_fortran", npy_bytes("|b1", DIMS, bytes(OCC), fortran=True))
+
+
+def line():
+    put("line", "few", "0 0 0 5 3 -2\n\n0.5 0.25 -1 -7.5 2 9\n1e1 0 0 -1e1 0.49999 3\n")
+    put("line", "args", "--algo adaptive --flag-box -1,-1,-1,1,1,1 0 0 0 3 3 3\n2 2 2 -4 1 0\n")
+    put("line", "tripod", "--algo tripod 0 0 0 1 1 1 4 4 4 0 0 0\n")
+
+
+def render():
+    put("render", "default", "")
+    put("render", "eye", "--eye 3,4,5 --target 0,1,0 --up 0,0,1 --fov 60 --size 8x6 --ray 6")
+    put("render", "ortho", "--ortho --view front --turntable 4 --ray aw --no-skip --normals face")
+    put("render", "volume", "--volume composite --window 0,5 --tf 0:0,2:0.5:#ff8000,5:1 --sampling trilinear")
+    put("render", "iso", "--volume iso --iso 1.5 --view top --size 7x3 --ray 26")
+    put("render", "raw_camera", b"\xff" + struct.pack("<18d", 3, 2, 5, 0, 0, 0, 0, 1, 0, 45, 2,
+                                                        0, 0, 0, 1, 1, 1, 0.3) + b"\x05\x07")
+
+
+for f in (obj, binvox, npy, nrrd, vox, volume_nrrd, volume_meta, volume_npy, line, render):
     f()

@@ -12,7 +12,7 @@ mod check;
 mod demo;
 pub mod line;
 mod measure;
-mod render;
+pub(crate) mod render;
 mod triangle;
 mod voxelize;
 

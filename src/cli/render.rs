@@ -291,7 +291,7 @@ fn load(args: &RenderArgs, limit: MemoryLimit) -> Result<Input, CliError> {
 }
 
 /// The camera for the options, framing the world box `[lo, hi]`.
-fn camera(args: &RenderArgs, lo: DVec3, hi: DVec3, axes: SceneAxes) -> Result<Camera, CliError> {
+pub(crate) fn camera(args: &RenderArgs, lo: DVec3, hi: DVec3, axes: SceneAxes) -> Result<Camera, CliError> {
     let (w, h) = args.size;
     let fov = (!args.ortho).then_some(args.fov);
     if !(args.fov > 0.0 && args.fov < 180.0) {
@@ -324,6 +324,16 @@ fn camera(args: &RenderArgs, lo: DVec3, hi: DVec3, axes: SceneAxes) -> Result<Ca
     };
     crate::render::camera_check(&cam)?;
     Ok(cam)
+}
+
+/// The camera of frame `i` of `frames`: a turntable orbits the base camera
+/// about the scene's up axis through the target.
+pub(crate) fn frame_camera(base: &Camera, axes: SceneAxes, i: u32, frames: u32) -> Camera {
+    if frames > 1 {
+        base.orbited(axes.up, std::f64::consts::TAU * f64::from(i) / f64::from(frames))
+    } else {
+        *base
+    }
 }
 
 /// Runs `voxkit render`.
@@ -440,11 +450,7 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let mut first: Option<(RenderImage, RenderStats, Camera)> = None;
     let mut gif_frames = Vec::new();
     for i in 0..frames {
-        let cam = if frames > 1 {
-            base_cam.orbited(axes.up, std::f64::consts::TAU * i as f64 / frames as f64)
-        } else {
-            base_cam
-        };
+        let cam = frame_camera(&base_cam, axes, i, frames);
         let mut rendered = renderer.render(&xf, &cam, &opts)?;
         times.push(rendered.1.render_ms);
         for _ in 1..args.reps {
@@ -576,7 +582,7 @@ impl Renderer {
 }
 
 /// The volume options of the arguments (defaults from the data).
-fn volume_options(args: &RenderArgs, vol: &ScalarVolume) -> Result<VolumeOptions, CliError> {
+pub(crate) fn volume_options(args: &RenderArgs, vol: &ScalarVolume) -> Result<VolumeOptions, CliError> {
     let mut v = VolumeOptions::new(vol, VolumeMode::Mip);
     if let Some(win) = args.window {
         v.window = win;
