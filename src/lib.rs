@@ -8,13 +8,14 @@
 //! | [`camera`] | perspective / orthographic camera shared by the rasterizer and the ray caster |
 //! | [`grid`] | dense grid with pointer-offset stepping, bit grid, world↔grid frame |
 //! | [`fixed`] | fixed-point sub-voxel coordinates |
+//! | [`guard`] | panic containment at reader boundaries: a dependency's panic becomes a typed error |
 //! | [`line`] | 3D lines (26, 18, tripod 6, Amanatides–Woo, adaptive) and 2D lines |
 //! | [`metric`] | the discrete distances d6, d18, d26 |
 //! | [`render`] | the discrete ray caster: 6 / 26 / adaptive / Amanatides–Woo rays, empty-space skipping |
 //! | [`report`] | speed against error of every line algorithm (what `voxkit demo` prints) |
 //! | [`topology`] | oracles: connectivity, containment, touching |
 //! | [`io`] | atomic file writes; voxel files: binvox, MagicaVoxel .vox, .npy, NRRD |
-//! | [`mesh`] | triangle meshes + polylines; OBJ and glTF 2.0 loaders; grid fitting |
+//! | [`mesh`] | triangle meshes + polylines; OBJ, glTF 2.0, PLY, STL and OFF loaders; grid fitting |
 //! | [`triangle`] | Kahan–Kelsen triangle point indexing and 2D rasterization |
 //! | [`voxelize`] | mesh voxelization and its exact references (conservative, solid) |
 //! | [`cli`] | the `voxkit` command line |
@@ -56,6 +57,7 @@ pub mod fixed;
 #[doc(hidden)]
 pub mod fuzz_entry;
 pub mod grid;
+pub mod guard;
 mod hint;
 pub mod io;
 pub mod line;

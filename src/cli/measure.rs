@@ -34,7 +34,7 @@ use crate::voxelize::measure::measure_external;
 /// Arguments of `voxkit measure`.
 #[derive(Debug, clap::Args)]
 pub struct MeasureArgs {
-    /// The mesh the voxels were made from (.obj, .gltf, .glb).
+    /// The mesh the voxels were made from (.obj, .gltf, .glb, .ply, .stl, .off).
     pub mesh: PathBuf,
     /// The voxels: a voxel file, or an (N, 3) integer .npy of indices.
     pub voxels: PathBuf,

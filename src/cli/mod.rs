@@ -43,7 +43,7 @@ pub enum Command {
     Line(LineArgs),
     /// Kahan–Kelsen indexing of the lattice points of a triangle.
     Triangle(TriangleArgs),
-    /// Voxelize a mesh (OBJ / glTF) into a voxel file.
+    /// Voxelize a mesh (OBJ / glTF / PLY / STL / OFF) into a voxel file.
     Voxelize(VoxelizeArgs),
     /// Check a voxel file's surface for N-tunnels (exit 1 if one exists).
     Check(CheckArgs),

@@ -56,7 +56,7 @@ Meshes and binvox/npy/NRRD grids are taken as Y-up, scalar volumes and .vox file
 (override with --up)."
 )]
 pub struct RenderArgs {
-    /// Input: .binvox, .vox, .npy, .nrrd, .nhdr, .mhd/.mha, or a mesh (.obj, .gltf, .glb).
+    /// Input: .binvox, .vox, .npy, .nrrd, .nhdr, .mhd/.mha, or a mesh (.obj, .gltf, .glb, .ply, .stl, .off).
     pub input: PathBuf,
     /// Output PNG (with --turntable N: a .gif, or a PNG name numbered per frame).
     #[arg(short = 'o', long = "output", value_name = "OUT.png")]
@@ -187,13 +187,9 @@ fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
-/// Mesh file extensions `render` voxelizes first.
+/// Mesh files `render` voxelizes first ([`crate::mesh::MESH_EXTENSIONS`]).
 fn is_mesh(path: &Path) -> bool {
-    let ext = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
-    matches!(ext.as_str(), "obj" | "gltf" | "glb")
+    crate::mesh::is_mesh_path(path)
 }
 
 /// What was loaded: a voxel grid in its frame, with the scene's axes.

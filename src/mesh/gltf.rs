@@ -20,19 +20,52 @@ use gltf::mesh::Mode;
 
 use super::{LoadSummary, Mesh};
 use crate::error::{Result, VoxkitError};
+use crate::guard::contain;
 
-/// Loads a `.gltf` or `.glb` file. See the module docs.
+/// Loads a `.gltf` or `.glb` file: reads it and calls [`parse`] with the
+/// file's folder as the base for external buffers.
 pub fn load(path: &Path) -> Result<Mesh> {
     let name = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|source| VoxkitError::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    let gltf = gltf::Gltf::from_slice(&bytes)
-        .map_err(|e| VoxkitError::invalid(format!("{name}: glTF: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
-    let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
-        .map_err(|e| VoxkitError::invalid(format!("{name}: glTF buffers: {e}")))?;
+    parse(&bytes, Some(base), &name)
+}
+
+/// Parses glTF JSON or GLB bytes; `name` prefixes error messages. External
+/// buffer URIs are resolved against `base_dir`; with `None` they are an error
+/// (data URIs and the GLB binary chunk need no folder). A panic inside the
+/// `gltf` crate is contained ([`crate::guard::contain`]) and becomes
+/// [`VoxkitError::Invalid`].
+///
+/// ```
+/// // A triangle as glTF JSON, its buffer (three f32 VEC3) in a data URI.
+/// let json = r#"{"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+///   "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+///   "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3",
+///                 "min":[0,0,0],"max":[1,1,0]}],
+///   "bufferViews":[{"buffer":0,"byteLength":36}],
+///   "buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]}"#;
+/// let m = voxkit::mesh::gltf::parse(json.as_bytes(), None, "tri.gltf").unwrap();
+/// assert_eq!(m.triangles.len(), 1);
+/// // The same document with an external buffer needs a folder to read it from.
+/// let ext = json.replace("data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA", "tri.bin");
+/// assert!(voxkit::mesh::gltf::parse(ext.as_bytes(), None, "tri.gltf").is_err());
+/// // An out-of-range accessor index makes the gltf crate's validator panic:
+/// // contained, it is a typed error.
+/// let bad = json.replace(r#""POSITION":0"#, r#""POSITION":7"#);
+/// let err = voxkit::mesh::gltf::parse(bad.as_bytes(), None, "bad.gltf").unwrap_err();
+/// assert!(err.to_string().contains("the gltf reader failed on this input"), "{err}");
+/// ```
+pub fn parse(bytes: &[u8], base_dir: Option<&Path>, name: &str) -> Result<Mesh> {
+    let gltf = contain(name, "gltf", || gltf::Gltf::from_slice(bytes))?
+        .map_err(|e| VoxkitError::invalid(format!("{name}: glTF: {e}")))?;
+    let buffers = contain(name, "gltf", || {
+        gltf::import_buffers(&gltf.document, base_dir, gltf.blob.clone())
+    })?
+    .map_err(|e| VoxkitError::invalid(format!("{name}: glTF buffers: {e}")))?;
     let doc = &gltf.document;
     let scene = doc
         .default_scene()
@@ -40,7 +73,7 @@ pub fn load(path: &Path) -> Result<Mesh> {
         .ok_or_else(|| VoxkitError::invalid(format!("{name}: the file has no scene")))?;
 
     let mut acc = Collect {
-        name: &name,
+        name,
         buffers: &buffers,
         positions: Vec::new(),
         triangles: Vec::new(),
@@ -58,7 +91,7 @@ pub fn load(path: &Path) -> Result<Mesh> {
         mut summary,
         ..
     } = acc;
-    Mesh::from_parts_with(&name, positions, triangles, polylines, &mut summary)
+    Mesh::from_parts_with(name, positions, triangles, polylines, &mut summary)
 }
 
 struct Collect<'a> {
@@ -146,15 +179,23 @@ impl Collect<'_> {
             }
             check_accessor(a, self.buffers, &what)?;
         }
-        let reader = prim.reader(|b| self.buffers.get(b.index()).map(|d| &d.0[..]));
-        let local: Vec<DVec3> = reader
-            .read_positions()
-            .ok_or_else(|| VoxkitError::invalid(format!("{what}: unreadable POSITION")))?
+        let buffers = self.buffers;
+        let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+        let raw: Vec<[f32; 3]> = contain(self.name, "gltf", || {
+            reader.read_positions().map(|it| it.collect::<Vec<_>>())
+        })?
+        .ok_or_else(|| VoxkitError::invalid(format!("{what}: unreadable POSITION")))?;
+        let local: Vec<DVec3> = raw
+            .into_iter()
             .map(|p| world.transform_point3(DVec3::from_array(p.map(f64::from))))
             .collect();
         let n = local.len();
-        let indices: Vec<u32> = match reader.read_indices() {
-            Some(ix) => ix.into_u32().collect(),
+        let indices: Vec<u32> = match contain(self.name, "gltf", || {
+            reader
+                .read_indices()
+                .map(|ix| ix.into_u32().collect::<Vec<_>>())
+        })? {
+            Some(ix) => ix,
             None => (0..n as u32).collect(),
         };
         if let Some((k, &i)) = indices.iter().enumerate().find(|&(_, &i)| i as usize >= n) {

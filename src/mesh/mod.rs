@@ -1,6 +1,15 @@
 //! Triangle meshes and polylines as the voxelizer takes them, with loaders for
-//! Wavefront OBJ ([`obj`]) and glTF 2.0 ([`gltf`]), validation, bounds and
-//! the `-r N` grid fitting rule.
+//! Wavefront OBJ ([`obj`]), glTF 2.0 ([`gltf`]), Stanford PLY ([`ply`]),
+//! STL ([`stl`]) and OFF ([`off`]), validation, bounds and the `-r N` grid
+//! fitting rule.
+//!
+//! Each format module has `load(path)` and a byte-based `parse` (what the
+//! fuzzers call); [`Mesh::load`] picks the module by extension. Polygons with
+//! more than three vertices are fan-triangulated (`0, k, k+1`) in every
+//! format. Calls into the parsing crates run under [`crate::guard::contain`],
+//! so a panic inside one becomes a typed error. Sizes in headers (PLY element
+//! counts, the binary STL triangle count, OFF counts) are checked against the
+//! bytes present before anything is allocated from them.
 //!
 //! Every loader ends in [`Mesh::from_parts`], which is where validation lives:
 //! non-finite coordinates and out-of-range indices are errors naming the file
@@ -23,6 +32,9 @@
 
 pub mod gltf;
 pub mod obj;
+pub mod off;
+pub mod ply;
+pub mod stl;
 
 use std::path::Path;
 
@@ -158,14 +170,18 @@ impl Mesh {
         })
     }
 
-    /// Loads a mesh, choosing the loader by extension: `.obj` ([`obj::load`]),
-    /// `.gltf` / `.glb` ([`gltf::load`]).
+    /// Loads a mesh, choosing the loader by extension (any case): `.obj`
+    /// ([`obj::load`]), `.gltf` / `.glb` ([`gltf::load`]), `.ply`
+    /// ([`ply::load`]), `.stl` ([`stl::load`]), `.off` ([`off::load`]).
     pub fn load(path: &Path) -> Result<Mesh> {
         match extension_of(path).as_str() {
             "obj" => obj::load(path),
             "gltf" | "glb" => gltf::load(path),
+            "ply" => ply::load(path),
+            "stl" => stl::load(path),
+            "off" => off::load(path),
             _ => Err(VoxkitError::Unsupported(format!(
-                "{}: unknown mesh format (expected .obj, .gltf or .glb)",
+                "{}: unknown mesh format (expected .obj, .gltf, .glb, .ply, .stl or .off)",
                 path.display()
             ))),
         }
