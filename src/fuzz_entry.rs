@@ -28,6 +28,10 @@ pub const LIMIT: MemoryLimit = MemoryLimit::new(256 << 20);
 /// directory under `fuzz/regressions/`.
 pub const TARGETS: &[&str] = &[
     "obj",
+    "gltf",
+    "ply",
+    "stl",
+    "off",
     "binvox",
     "vox",
     "npy",
@@ -43,6 +47,10 @@ pub const TARGETS: &[&str] = &[
 pub fn run(target: &str, data: &[u8]) -> Result<()> {
     match target {
         "obj" => obj(data),
+        "gltf" => gltf(data),
+        "ply" => ply(data),
+        "stl" => stl(data),
+        "off" => off(data),
         "binvox" => binvox(data),
         "vox" => vox(data),
         "npy" => npy(data),
@@ -64,6 +72,31 @@ pub fn obj(data: &[u8]) -> Result<()> {
     Ok(())
 }
 
+/// glTF JSON or GLB bytes (no base directory: external buffers are an
+/// error, data URIs and the GLB chunk are read).
+pub fn gltf(data: &[u8]) -> Result<()> {
+    check_mesh(&crate::mesh::gltf::parse(data, None, "fuzz.glb")?);
+    Ok(())
+}
+
+/// PLY bytes (ASCII or binary).
+pub fn ply(data: &[u8]) -> Result<()> {
+    check_mesh(&crate::mesh::ply::parse(data, "fuzz.ply")?);
+    Ok(())
+}
+
+/// STL bytes (ASCII or binary).
+pub fn stl(data: &[u8]) -> Result<()> {
+    check_mesh(&crate::mesh::stl::parse(data, "fuzz.stl")?);
+    Ok(())
+}
+
+/// OFF bytes.
+pub fn off(data: &[u8]) -> Result<()> {
+    check_mesh(&crate::mesh::off::parse(data, "fuzz.off")?);
+    Ok(())
+}
+
 /// A loaded mesh's indices must point at its positions.
 fn check_mesh(mesh: &crate::mesh::Mesh) {
     let n = mesh.positions.len();
@@ -73,6 +106,11 @@ fn check_mesh(mesh: &crate::mesh::Mesh) {
     for l in &mesh.polylines {
         assert!(l.iter().all(|&i| (i as usize) < n), "polyline index out of range");
     }
+    assert!(mesh.positions.iter().all(|p| p.is_finite()), "a non-finite position");
+    assert!(
+        !(mesh.triangles.is_empty() && mesh.polylines.is_empty()),
+        "an empty mesh was accepted"
+    );
     let _ = mesh.bounds();
 }
 

@@ -179,5 +179,69 @@ def render():
                                                         0, 0, 0, 1, 1, 1, 0.3) + b"\x05\x07")
 
 
-for f in (obj, binvox, npy, nrrd, vox, volume_nrrd, volume_meta, volume_npy, line, render):
+TET_V = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+TET_F = [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]
+
+
+def gltf():
+    d = os.path.join(ROOT, "data/meshes/gltf")
+    for name in sorted(os.listdir(d)):
+        p = os.path.join(d, name)
+        if name.endswith(".glb") and os.path.getsize(p) <= 65536:
+            put("gltf", name, open(p, "rb").read())
+    import base64
+    import json
+    pos = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)
+    idx = struct.pack("<3H", 0, 1, 2) + b"\0\0"
+    buf = pos + idx
+    doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+           "nodes": [{"mesh": 0, "children": [1]}, {"mesh": 0, "translation": [1, 2, 3],
+                                                     "rotation": [0, 0, 0.7071068, 0.7071068], "scale": [2, 2, 2]}],
+           "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1},
+                                      {"attributes": {"POSITION": 0}, "mode": 3}]}],
+           "buffers": [{"byteLength": len(buf),
+                        "uri": "data:application/octet-stream;base64," + base64.b64encode(buf).decode()}],
+           "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                           {"buffer": 0, "byteOffset": 36, "byteLength": 6}],
+           "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                          "min": [0, 0, 0], "max": [1, 1, 0]},
+                         {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}]}
+    text = json.dumps(doc).encode()
+    put("gltf", "tri.gltf", text)
+    doc["buffers"] = [{"byteLength": len(buf)}]
+    j = json.dumps(doc).encode()
+    j += b" " * (-len(j) % 4)
+    body = struct.pack("<II", len(j), 0x4E4F534A) + j + struct.pack("<II", len(buf), 0x004E4942) + buf
+    put("gltf", "tri.glb", b"glTF" + struct.pack("<II", 2, 12 + len(body)) + body)
+
+
+def ply():
+    head = "ply\nformat %s 1.0\ncomment fuzz seed\nelement vertex 4\nproperty float x\nproperty float y\n" \
+           "property float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n"
+    put("ply", "ascii", head % "ascii" + "".join("%d %d %d\n" % v for v in TET_V)
+        + "".join("3 %d %d %d\n" % f for f in TET_F))
+    put("ply", "binary_le", (head % "binary_little_endian").encode()
+        + b"".join(struct.pack("<3f", *v) for v in TET_V) + b"".join(struct.pack("<B3i", 3, *f) for f in TET_F))
+    head2 = head.replace("float", "double").replace("uchar int", "uint8 uint32").replace("face 4", "face 2")
+    put("ply", "binary_be_double", (head2 % "binary_big_endian").encode()
+        + b"".join(struct.pack(">3d", *v) for v in TET_V)
+        + struct.pack(">B4I", 4, 0, 1, 2, 3) + struct.pack(">B3I", 3, 1, 2, 3))
+
+
+def stl():
+    tris = [[TET_V[i] for i in f] for f in TET_F]
+    put("stl", "ascii", "solid t\n" + "".join(
+        "facet normal 0 0 0\nouter loop\n" + "".join("vertex %d %d %d\n" % v for v in t) + "endloop\nendfacet\n"
+        for t in tris) + "endsolid t\n")
+    put("stl", "binary", b"\0" * 80 + struct.pack("<I", len(tris)) + b"".join(
+        struct.pack("<12fH", 0, 0, 0, *[c for v in t for c in v], 0) for t in tris))
+
+
+def off():
+    put("off", "tet", "OFF\n# c\n4 4 6\n" + "".join("%d %d %d\n" % v for v in TET_V)
+        + "".join("3 %d %d %d\n" % f for f in TET_F))
+    put("off", "quad_colors", "OFF 4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3 255 0 0\n")
+
+
+for f in (gltf, ply, stl, off, obj, binvox, npy, nrrd, vox, volume_nrrd, volume_meta, volume_npy, line, render):
     f()
