@@ -10,7 +10,7 @@ set -euo pipefail
 cd "$(dirname "$0")"
 target=$1; secs=${2:-600}; max_len=${3:-65536}; shift $(( $# < 3 ? $# : 3 ))
 if [ -z "${NO_BUILD:-}" ]; then
-  RUSTC_BOOTSTRAP=1 cargo fuzz build -O "$target"
+  RUSTC_BOOTSTRAP=1 cargo fuzz build -O --codegen-units 4 "$target"
 fi
 mkdir -p "corpus/$target" "artifacts/$target"
 [ -n "$(ls -A "corpus/$target")" ] || python3 seeds/make_seeds.py

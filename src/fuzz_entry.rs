@@ -101,12 +101,21 @@ pub fn off(data: &[u8]) -> Result<()> {
 fn check_mesh(mesh: &crate::mesh::Mesh) {
     let n = mesh.positions.len();
     for t in &mesh.triangles {
-        assert!(t.iter().all(|&i| (i as usize) < n), "triangle index out of range");
+        assert!(
+            t.iter().all(|&i| (i as usize) < n),
+            "triangle index out of range"
+        );
     }
     for l in &mesh.polylines {
-        assert!(l.iter().all(|&i| (i as usize) < n), "polyline index out of range");
+        assert!(
+            l.iter().all(|&i| (i as usize) < n),
+            "polyline index out of range"
+        );
     }
-    assert!(mesh.positions.iter().all(|p| p.is_finite()), "a non-finite position");
+    assert!(
+        mesh.positions.iter().all(|p| p.is_finite()),
+        "a non-finite position"
+    );
     assert!(
         !(mesh.triangles.is_empty() && mesh.polylines.is_empty()),
         "an empty mesh was accepted"
@@ -128,7 +137,11 @@ fn round_trip(
         return;
     }
     let (again, _) = read(&bytes).expect("a file we wrote must read back");
-    assert_eq!(again.count(), grid.count(), "voxel count changed in a round trip");
+    assert_eq!(
+        again.count(),
+        grid.count(),
+        "voxel count changed in a round trip"
+    );
 }
 
 /// `.binvox` bytes.
@@ -148,7 +161,12 @@ pub fn binvox(data: &[u8]) -> Result<()> {
 pub fn vox(data: &[u8]) -> Result<()> {
     use crate::io::vox;
     let (grid, frame, _colors) = vox::read_colored(data, LIMIT)?;
-    round_trip(&grid, &frame, |w, g, f| vox::write(w, g, f), |b| vox::read(b, LIMIT));
+    round_trip(
+        &grid,
+        &frame,
+        |w, g, f| vox::write(w, g, f),
+        |b| vox::read(b, LIMIT),
+    );
     Ok(())
 }
 
@@ -270,12 +288,20 @@ pub fn line(data: &[u8]) -> Result<()> {
             match voxels(algo, fb, &seg) {
                 Ok(vs) => check_line(&seg, &vs.collect::<Vec<_>>(), conn, exact, algo),
                 // Amanatides–Woo refuses what it cannot step in f64.
-                Err(e) => assert!(algo == LineAlgo::Aw && e.code == 2, "{algo:?}: {}", e.message),
+                Err(e) => assert!(
+                    algo == LineAlgo::Aw && e.code == 2,
+                    "{algo:?}: {}",
+                    e.message
+                ),
             }
         }
         let t6 = crate::line::Tripod6::new(&seg);
         let (v0, v1) = (seg.start_voxel(), seg.end_voxel());
-        assert_eq!(t6.len() as u64, crate::metric::d6(v0, v1) + 1, "tripod count");
+        assert_eq!(
+            t6.len() as u64,
+            crate::metric::d6(v0, v1) + 1,
+            "tripod count"
+        );
     }
     line_cli(text.lines().next().unwrap_or(""));
     match first_error {
@@ -298,11 +324,22 @@ fn check_line(
 ) {
     assert!(!path.is_empty(), "{algo:?}: no voxel for {seg:?}");
     for w in path.windows(2) {
-        assert!(adjacent(w[0], w[1], conn), "{algo:?}: {w:?} not {conn:?}-adjacent, {seg:?}");
+        assert!(
+            adjacent(w[0], w[1], conn),
+            "{algo:?}: {w:?} not {conn:?}-adjacent, {seg:?}"
+        );
     }
     if exact {
-        assert_eq!(path[0], seg.start_voxel(), "{algo:?}: first voxel of {seg:?}");
-        assert_eq!(path[path.len() - 1], seg.end_voxel(), "{algo:?}: last voxel of {seg:?}");
+        assert_eq!(
+            path[0],
+            seg.start_voxel(),
+            "{algo:?}: first voxel of {seg:?}"
+        );
+        assert_eq!(
+            path[path.len() - 1],
+            seg.end_voxel(),
+            "{algo:?}: last voxel of {seg:?}"
+        );
     }
 }
 
@@ -310,7 +347,9 @@ fn check_line(
 /// short (never from stdin: without coordinates it is only parsed).
 fn line_cli(args: &str) {
     use clap::Parser;
-    let argv = ["voxkit", "line"].into_iter().chain(args.split_whitespace());
+    let argv = ["voxkit", "line"]
+        .into_iter()
+        .chain(args.split_whitespace());
     let Ok(cli) = crate::cli::Cli::try_parse_from(argv) else {
         return;
     };
@@ -365,7 +404,10 @@ fn tiny_grid() -> (OccupancyGrid, GridTransform) {
         .collect();
     let occ = OccupancyGrid::new(&grid, dims, LIMIT).expect("a tiny grid fits");
     let frame = GridFrame::new(DVec3::new(-1.0, 0.5, 2.0), 0.25, dims);
-    (occ, GridTransform::from_frame(&frame).expect("a valid frame"))
+    (
+        occ,
+        GridTransform::from_frame(&frame).expect("a valid frame"),
+    )
 }
 
 fn tiny_volume() -> ScalarVolume {
@@ -390,15 +432,16 @@ fn render_cli(text: &str) -> std::result::Result<(), CliError> {
     use clap::Parser;
     let base = ["voxkit", "render", "in.binvox", "-o", "out.png"];
     let argv = base.into_iter().chain(text.split_whitespace());
-    let cli = crate::cli::Cli::try_parse_from(argv).map_err(|e| CliError::bad_input(e.to_string()))?;
+    let cli =
+        crate::cli::Cli::try_parse_from(argv).map_err(|e| CliError::bad_input(e.to_string()))?;
     let crate::cli::Command::Render(mut args) = cli.command else {
         unreachable!("parsed as `voxkit render`")
     };
-    let frames = args.turntable.unwrap_or(1);
-    if frames == 0 {
-        return Err(CliError::bad_input("--turntable needs at least one frame"));
-    }
-    args.size = (args.size.0.min(MAX_IMAGE_SIDE), args.size.1.min(MAX_IMAGE_SIDE));
+    let frames = crate::cli::render::check_frames(&args, LIMIT)?;
+    args.size = (
+        args.size.0.min(MAX_IMAGE_SIDE),
+        args.size.1.min(MAX_IMAGE_SIDE),
+    );
     let opts = RenderOptions {
         width: args.size.0,
         height: args.size.1,
@@ -409,14 +452,17 @@ fn render_cli(text: &str) -> std::result::Result<(), CliError> {
         limit: LIMIT,
         ..RenderOptions::default()
     };
-    let volume_args = args.volume.is_some() || args.iso.is_some() || args.window.is_some() || args.tf.is_some();
+    let volume_args =
+        args.volume.is_some() || args.iso.is_some() || args.window.is_some() || args.tf.is_some();
     let picks = [0, frames / 2, frames - 1];
     if volume_args {
         let vol = tiny_volume();
         let vs = crate::render::VolumeScene::new(&vol, LIMIT)?;
         let vopts = volume_options(&args, &vol)?;
         let d = vs.dims().map(|x| x as f64);
-        let (lo, hi) = vs.transform().world_bounds(DVec3::splat(-0.5), DVec3::from_array(d) - 0.5);
+        let (lo, hi) = vs
+            .transform()
+            .world_bounds(DVec3::splat(-0.5), DVec3::from_array(d) - 0.5);
         let base_cam = camera(&args, lo, hi, SceneAxes::Z_UP)?;
         for &i in &picks[..MAX_FRAMES.min(frames) as usize] {
             let cam = frame_camera(&base_cam, SceneAxes::Z_UP, i, frames);
@@ -444,12 +490,21 @@ fn render_raw_camera(data: &[u8]) -> Result<()> {
         .chunks_exact(8)
         .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
         .chain(std::iter::repeat(1.0));
-    let mut v3 = || DVec3::new(f.next().unwrap_or(1.0), f.next().unwrap_or(1.0), f.next().unwrap_or(1.0));
+    let mut v3 = || {
+        DVec3::new(
+            f.next().unwrap_or(1.0),
+            f.next().unwrap_or(1.0),
+            f.next().unwrap_or(1.0),
+        )
+    };
     let (eye, target, up) = (v3(), v3(), v3());
     let (fov, height) = (v3().x, v3().x);
     let (lo, hi, toward) = (v3(), v3(), v3());
     let angle = v3().x;
-    let side = |i: usize| data.get(data.len().wrapping_sub(i)).map_or(4, |&b| u32::from(b % 9));
+    let side = |i: usize| {
+        data.get(data.len().wrapping_sub(i))
+            .map_or(4, |&b| u32::from(b % 9))
+    };
     let (w, h) = (side(1), side(2));
     let (occ, xf) = tiny_grid();
     let opts = RenderOptions {

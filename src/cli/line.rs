@@ -125,7 +125,10 @@ pub fn voxels<'a>(
                     crate::fixed::to_f64(q[2]),
                 )
             };
-            Box::new(crate::line::amanatides_woo::aw_line(p(seg.a()), p(seg.b()))?)
+            Box::new(crate::line::amanatides_woo::aw_line(
+                p(seg.a()),
+                p(seg.b()),
+            )?)
         }
     })
 }

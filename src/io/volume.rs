@@ -60,6 +60,10 @@ const CHUNK: usize = 1 << 16;
 /// transposed through.
 const NPY_BLOCK_BYTES: usize = 8 << 20;
 
+/// Most data files a header may name (a `LIST` or a `%d` pattern): a
+/// pattern's names are built in memory, and each file is opened in turn.
+const MAX_DATA_FILES: u128 = 1 << 16;
+
 /// Longest text sample accepted in ASCII data.
 const MAX_TOKEN: usize = 64;
 
@@ -549,6 +553,11 @@ fn expand_pattern(fmt: &str, min: i64, max: i64, step: i64, expected: u128) -> R
     if count as u128 != expected {
         return Err(invalid(format!(
             "data file pattern names {count} files, the sizes need {expected}"
+        )));
+    }
+    if count as u128 > MAX_DATA_FILES {
+        return Err(unsupported(format!(
+            "data file pattern names {count} files; at most {MAX_DATA_FILES} are read"
         )));
     }
     let (head, zero_pad, width, tail) = parse_int_format(fmt)?;
@@ -1713,6 +1722,16 @@ mod tests {
             expand_pattern("q", 1, 1, 1, 1),
             Err(VoxkitError::Unsupported(_))
         ));
+        // A pattern whose count matches the sizes but names more files than
+        // are ever read is refused before its names are built (a 1×1×2^28
+        // uint8 volume is only 256 MiB).
+        let many = 1i64 << 28;
+        assert!(matches!(
+            expand_pattern("q%d", 1, many, 1, many as u128),
+            Err(VoxkitError::Unsupported(_))
+        ));
+        let most = MAX_DATA_FILES as i64;
+        assert_eq!(expand_pattern("q%d", 1, most, 1, most as u128).unwrap().len() as i64, most);
     }
 
     #[test]
