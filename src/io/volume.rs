@@ -1731,7 +1731,12 @@ mod tests {
             Err(VoxkitError::Unsupported(_))
         ));
         let most = MAX_DATA_FILES as i64;
-        assert_eq!(expand_pattern("q%d", 1, most, 1, most as u128).unwrap().len() as i64, most);
+        assert_eq!(
+            expand_pattern("q%d", 1, most, 1, most as u128)
+                .unwrap()
+                .len() as i64,
+            most
+        );
     }
 
     #[test]
