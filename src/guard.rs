@@ -100,3 +100,68 @@ pub fn contain<T>(what: &str, krate: &str, f: impl FnOnce() -> T) -> Result<T> {
         ))
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Run in a child process (a fresh hook state): a custom hook installed
+    /// first keeps seeing panics outside `contain`, from several threads,
+    /// while panics inside it stay silent on every thread.
+    #[test]
+    #[ignore = "run by hook_delegation_in_a_fresh_process"]
+    fn hook_child() {
+        panic::set_hook(Box::new(|info| {
+            let msg = info
+                .payload()
+                .downcast_ref::<&str>()
+                .copied()
+                .unwrap_or("?");
+            eprintln!("custom-hook: {msg}");
+        }));
+        std::thread::scope(|s| {
+            for _ in 0..4 {
+                s.spawn(|| {
+                    for _ in 0..50 {
+                        let e = contain("f", "dep", || panic!("inner-secret")).unwrap_err();
+                        assert!(e.to_string().contains("inner-secret"));
+                    }
+                });
+            }
+            s.spawn(|| {
+                for _ in 0..5 {
+                    let r = panic::catch_unwind(|| panic!("outer-visible"));
+                    assert!(r.is_err());
+                }
+            });
+        });
+        // Nested: the depth counter returns to 0 after an inner unwind.
+        let r = contain("f", "dep", || {
+            contain("g", "dep", || panic!("inner-secret"))
+        });
+        assert!(r.unwrap().is_err());
+        assert_eq!(DEPTH.with(|d| d.get()), 0);
+        let _ = panic::catch_unwind(|| panic!("outer-visible"));
+    }
+
+    #[test]
+    fn hook_delegation_in_a_fresh_process() {
+        let out = std::process::Command::new(std::env::current_exe().unwrap())
+            .args([
+                "guard::tests::hook_child",
+                "--exact",
+                "--ignored",
+                "--nocapture",
+            ])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{err}");
+        assert_eq!(
+            err.matches("custom-hook: outer-visible").count(),
+            6,
+            "{err}"
+        );
+        assert!(!err.contains("inner-secret"), "{err}");
+    }
+}

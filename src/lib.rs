@@ -13,6 +13,7 @@
 //! | [`metric`] | the discrete distances d6, d18, d26 |
 //! | [`render`] | the discrete ray caster: 6 / 26 / adaptive / Amanatides–Woo rays, empty-space skipping |
 //! | [`report`] | speed against error of every line algorithm (what `voxkit demo` prints) |
+//! | [`stability`] | the numerical-stability suite: hard inputs against exact oracles |
 //! | [`topology`] | oracles: connectivity, containment, touching |
 //! | [`io`] | atomic file writes; voxel files: binvox, MagicaVoxel .vox, .npy, NRRD |
 //! | [`mesh`] | triangle meshes + polylines; OBJ, glTF 2.0, PLY, STL and OFF loaders; grid fitting |
@@ -65,6 +66,7 @@ pub mod mesh;
 pub mod metric;
 pub mod render;
 pub mod report;
+pub mod stability;
 pub mod topology;
 pub mod triangle;
 pub mod voxelize;

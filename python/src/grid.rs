@@ -437,7 +437,8 @@ impl Grid {
     }
 }
 
-/// `(vertices (N,3) float64, faces (M,3) int64)` of an OBJ or glTF file.
+/// `(vertices (N,3) float64, faces (M,3) int64)` of an OBJ, glTF/GLB, PLY,
+/// STL or OFF file (chosen by extension, as `Mesh::load` does).
 #[pyfunction]
 pub fn load_mesh<'py>(py: Python<'py>, path: PathBuf) -> PyResult<MeshArrays<'py>> {
     let mesh = run(py, || Mesh::load(&path))?;

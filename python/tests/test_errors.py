@@ -47,7 +47,7 @@ def nan_vertices():
         (lambda: voxkit.voxelize(V, F, resolution=64, max_memory_mib=0), MemoryError, "memory limit"),
         (lambda: voxkit.voxelize(V, F, voxel_size=1e-5), MemoryError, "memory limit"),
         (lambda: voxkit.load_mesh("/nonexistent/x.obj"), FileNotFoundError, "nonexistent"),
-        (lambda: voxkit.load_mesh(SPOT.with_suffix(".stl")), ValueError, "unknown mesh format"),
+        (lambda: voxkit.load_mesh(SPOT.with_suffix(".xyz")), ValueError, "unknown mesh format"),
         (lambda: voxkit.load_grid("/nonexistent/g.binvox"), FileNotFoundError, "nonexistent"),
         (lambda: voxkit.load_grid("g.xyz"), ValueError, "unknown voxel format"),
         (lambda: voxkit.read_volume("/nonexistent/v.nrrd"), OSError, "nonexistent"),

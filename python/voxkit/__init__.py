@@ -105,8 +105,12 @@ def _vec3(v: Any, what: str) -> Optional[Tuple[float, float, float]]:
 
 
 def load_mesh(path: PathLike) -> Tuple[np.ndarray, np.ndarray]:
-    """Read an OBJ (``.obj``) or glTF 2.0 (``.gltf``/``.glb``, default scene with
-    node transforms) file with the library's validation.
+    """Read a mesh file with the library's validation, the format chosen by
+    extension (any case): OBJ (``.obj``), glTF 2.0 (``.gltf``/``.glb``, default
+    scene with node transforms), PLY (``.ply``, ascii or binary), STL (``.stl``,
+    ascii or binary; coincident corners merged into shared vertices) or OFF
+    (``.off``, as in ModelNet). Polygons are fan-triangulated; colours, normals
+    and other per-vertex data are ignored.
 
     Returns ``(vertices (N, 3) float64, faces (M, 3) int64)``. Degenerate
     triangles are dropped; OBJ relative (negative) indices are resolved

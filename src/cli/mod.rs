@@ -2,12 +2,14 @@
 //! become exit codes.
 //!
 //! Exit codes: 0 success; 1 a check ran and found a problem; 2 bad input
-//! (unparsable arguments, malformed lines or files, limits exceeded).
+//! (unparsable arguments, malformed lines or files, limits exceeded; for
+//! `voxelize` in batch mode: any mesh failed, the others having been done).
 
 use std::io::Write;
 
 use clap::{Parser, Subcommand};
 
+mod batch;
 mod check;
 mod demo;
 pub mod line;
@@ -22,7 +24,7 @@ pub use line::LineArgs;
 pub use measure::MeasureArgs;
 pub use render::RenderArgs;
 pub use triangle::TriangleArgs;
-pub use voxelize::{ModeArg, VoxelizeArgs};
+pub use voxelize::{FormatArg, ModeArg, VoxelizeArgs};
 
 /// Discrete 3D lines, voxelization and discrete ray casting.
 #[derive(Debug, Parser)]
@@ -43,7 +45,8 @@ pub enum Command {
     Line(LineArgs),
     /// Kahan–Kelsen indexing of the lattice points of a triangle.
     Triangle(TriangleArgs),
-    /// Voxelize a mesh (OBJ / glTF / PLY / STL / OFF) into a voxel file.
+    /// Voxelize a mesh (OBJ / glTF / PLY / STL / OFF) into a voxel file, or many
+    /// (directories, glob patterns) into a folder.
     Voxelize(VoxelizeArgs),
     /// Check a voxel file's surface for N-tunnels (exit 1 if one exists).
     Check(CheckArgs),

@@ -1,8 +1,12 @@
 //! `voxkit voxelize MESH (-r N | --voxel-size H [--origin X,Y,Z]) -o OUT [--mode thin|thick|conservative|solid] [--snap [--kahan-kelsen]] [--json] [--measure] [--force] [--max-memory MIB] [-q]`
 //!
-//! Loads an OBJ / glTF mesh, voxelizes it ([`voxelize_mesh`]) and writes a
+//! Loads a mesh, voxelizes it ([`voxelize_mesh`]) and writes a
 //! `.binvox`, `.vox`, `.npy` or `.nrrd` file (by extension). An existing
 //! output is refused without `--force` (exit 2, checked before any work).
+//!
+//! Several inputs, a directory or a glob pattern select batch mode
+//! (`voxkit voxelize DIR|GLOB|MESH… -o OUTDIR [--format FORMAT]`,
+//! [`super::batch`]), which takes the same options.
 //!
 //! `-r N` fits `N` voxels along the mesh's longest side; `--voxel-size H`
 //! puts the grid on the lattice of voxels of edge `H` whose corners include
@@ -23,7 +27,7 @@
 //! terminal and `-q` is not given.
 
 use std::io::{IsTerminal, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -32,7 +36,9 @@ use crate::grid::MemoryLimit;
 use crate::io::{VoxelFormat, write_voxels_limited};
 use crate::mesh::Mesh;
 use crate::voxelize::measure::{ErrorMeasures, measure_voxelization};
-use crate::voxelize::pipeline::{Lattice, Progress, VoxelizeMode, VoxelizeOptions, voxelize_mesh};
+use crate::voxelize::pipeline::{
+    Lattice, Progress, Voxelization, VoxelizeMode, VoxelizeOptions, voxelize_mesh,
+};
 use crate::voxelize::solid::InsideTest;
 
 /// The `--mode` values.
@@ -59,11 +65,39 @@ impl From<ModeArg> for VoxelizeMode {
     }
 }
 
+/// The `--format` values (batch mode's output format).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FormatArg {
+    /// `.binvox`.
+    Binvox,
+    /// MagicaVoxel `.vox`.
+    Vox,
+    /// NumPy `.npy`.
+    Npy,
+    /// `.nrrd`.
+    Nrrd,
+}
+
+impl FormatArg {
+    /// The file extension of the format (without the dot).
+    pub fn extension(self) -> &'static str {
+        match self {
+            FormatArg::Binvox => "binvox",
+            FormatArg::Vox => "vox",
+            FormatArg::Npy => "npy",
+            FormatArg::Nrrd => "nrrd",
+        }
+    }
+}
+
 /// Arguments of `voxkit voxelize`.
 #[derive(Debug, clap::Args)]
 pub struct VoxelizeArgs {
-    /// The mesh (.obj, .gltf, .glb).
-    pub mesh: PathBuf,
+    /// The mesh (.obj, .gltf, .glb, .ply, .stl, .off). Batch mode: several
+    /// meshes, directories (walked recursively for files with a mesh
+    /// extension) or quoted glob patterns (`'data/**/*.obj'`).
+    #[arg(required = true, value_name = "MESH|DIR|GLOB")]
+    pub inputs: Vec<PathBuf>,
     /// Voxels along the longest side of the bounding box.
     #[arg(
         short = 'r',
@@ -81,9 +115,14 @@ pub struct VoxelizeArgs {
     /// mesh's bounding-box min.
     #[arg(long, value_name = "X,Y,Z", requires = "voxel_size", value_parser = super::render::parse_vec3, allow_hyphen_values = true)]
     pub origin: Option<glam::DVec3>,
-    /// Output file (.binvox, .vox, .npy, .nrrd).
+    /// Output file (.binvox, .vox, .npy, .nrrd); in batch mode the output
+    /// directory (created if missing).
     #[arg(short = 'o', long = "output", value_name = "OUT")]
     pub output: PathBuf,
+    /// Batch mode: the format of every output [default: binvox]. (A single
+    /// mesh's format is its output's extension.)
+    #[arg(long, value_enum, value_name = "FORMAT")]
+    pub format: Option<FormatArg>,
     /// Which voxel set.
     #[arg(long, value_enum, default_value = "thin")]
     pub mode: ModeArg,
@@ -102,10 +141,11 @@ pub struct VoxelizeArgs {
     /// Print one line of JSON.
     #[arg(long)]
     pub json: bool,
-    /// Also compute error measures against the exact conservative set.
+    /// Also compute error measures against the exact conservative set
+    /// (single mesh only).
     #[arg(long)]
     pub measure: bool,
-    /// Overwrite an existing output.
+    /// Overwrite an existing output (batch mode: instead of skipping it).
     #[arg(long)]
     pub force: bool,
     /// Memory limit in MiB (estimated before allocating).
@@ -153,9 +193,9 @@ fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
-/// Runs `voxkit voxelize`.
-pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
-    VoxelFormat::from_path(&args.output)?;
+/// The voxelizer's options from the arguments (lattice, mode, snapping,
+/// inside test, memory limit), shared by single-mesh and batch mode.
+pub(super) fn voxelize_options(args: &VoxelizeArgs) -> Result<VoxelizeOptions, CliError> {
     // clap's `requires` is not checked when the required argument conflicts
     // with a present one (`-r`), so `-r N --origin …` is refused here.
     if args.origin.is_some() && args.voxel_size.is_none() {
@@ -163,26 +203,6 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
             "--origin applies only with --voxel-size",
         ));
     }
-    if !args.force && args.output.exists() {
-        return Err(CliError::bad_input(format!(
-            "{} exists (use --force to overwrite)",
-            args.output.display()
-        )));
-    }
-    let limit = MemoryLimit::new(args.max_memory.saturating_mul(1 << 20));
-    let t = Instant::now();
-    let mesh = Mesh::load(&args.mesh)?;
-    let load_ms = ms(t);
-
-    let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
-        let b = indicatif::ProgressBar::new(4);
-        b.set_style(
-            indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} [{bar:30}] {msg}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b.enable_steady_tick(std::time::Duration::from_millis(120));
-        b
-    });
     let lattice = match (args.resolution, args.voxel_size) {
         (_, Some(voxel_size)) => Lattice::VoxelSize {
             voxel_size,
@@ -197,7 +217,91 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
     opts.snap = args.snap;
     opts.kahan_kelsen = args.kahan_kelsen;
     opts.inside = args.inside;
-    opts.limit = limit;
+    opts.limit = MemoryLimit::new(args.max_memory.saturating_mul(1 << 20));
+    Ok(opts)
+}
+
+/// The `--json` keys of one voxelized mesh, without the `--measure` keys and
+/// `peak_rss_mib` (see the module docs).
+pub(super) fn result_json(
+    args: &VoxelizeArgs,
+    mesh: &Path,
+    output: &Path,
+    v: &Voxelization,
+    load_ms: f64,
+    write_ms: f64,
+) -> serde_json::Value {
+    let s = &v.stats;
+    let mut j = serde_json::json!({
+        "mesh": mesh.display().to_string(),
+        "output": output.display().to_string(),
+        "mode": VoxelizeMode::from(args.mode).name(),
+        "resolution": args.resolution,
+        "voxel_size": v.frame.voxel_size,
+        "origin": v.frame.origin.to_array(),
+        "snap": args.snap,
+        "kahan_kelsen": args.kahan_kelsen,
+        "dims": v.frame.dims,
+        "triangles": s.triangles,
+        "skipped_triangles": s.skipped_triangles,
+        "segments": s.segments,
+        "voxels": s.voxels,
+        "bricks": s.bricks,
+        "estimated_mib": s.estimated_bytes as f64 / (1u64 << 20) as f64,
+        "load_ms": load_ms,
+        "quantize_ms": s.quantize_ms,
+        "kernel_ms": s.kernel_ms,
+        "polyline_ms": s.polyline_ms,
+        "voxelize_ms": s.total_ms,
+        "write_ms": write_ms,
+    });
+    if let Some(solid) = &s.solid {
+        let obj = j.as_object_mut().expect("json! of an object literal");
+        obj.insert("inside".into(), args.inside.name().into());
+        obj.insert("caps".into(), solid.caps.into());
+        obj.insert("crossings".into(), solid.crossings.into());
+        obj.insert("refined_bricks".into(), solid.refined_bricks.into());
+        obj.insert("winding_ambiguous".into(), solid.ambiguous.into());
+        obj.insert("winding_point_queries".into(), solid.point_queries.into());
+        obj.insert("winding_box_queries".into(), solid.box_queries.into());
+    }
+    j
+}
+
+/// Runs `voxkit voxelize`: batch mode ([`super::batch`]) for several inputs,
+/// a directory or a glob pattern, otherwise one mesh.
+pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
+    if super::batch::is_batch(&args.inputs) {
+        return super::batch::run(&args, out);
+    }
+    if args.format.is_some() {
+        return Err(CliError::bad_input(
+            "--format applies to batch mode; a single mesh's format is the extension of -o",
+        ));
+    }
+    let mesh_path = &args.inputs[0];
+    VoxelFormat::from_path(&args.output)?;
+    let mut opts = voxelize_options(&args)?;
+    if !args.force && args.output.exists() {
+        return Err(CliError::bad_input(format!(
+            "{} exists (use --force to overwrite)",
+            args.output.display()
+        )));
+    }
+    let limit = opts.limit;
+    let t = Instant::now();
+    let mesh = Mesh::load(mesh_path)?;
+    let load_ms = ms(t);
+
+    let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
+        let b = indicatif::ProgressBar::new(4);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} [{bar:30}] {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b.enable_steady_tick(std::time::Duration::from_millis(120));
+        b
+    });
     if let Some(b) = &bar {
         let b = b.clone();
         opts.progress = Some(Arc::new(move |p: Progress| {
@@ -236,39 +340,7 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
     }
     written?;
     let s = &v.stats;
-    let mut j = serde_json::json!({
-        "mesh": args.mesh.display().to_string(),
-        "output": args.output.display().to_string(),
-        "mode": VoxelizeMode::from(args.mode).name(),
-        "resolution": args.resolution,
-        "voxel_size": v.frame.voxel_size,
-        "origin": v.frame.origin.to_array(),
-        "snap": args.snap,
-        "kahan_kelsen": args.kahan_kelsen,
-        "dims": v.frame.dims,
-        "triangles": s.triangles,
-        "skipped_triangles": s.skipped_triangles,
-        "segments": s.segments,
-        "voxels": s.voxels,
-        "bricks": s.bricks,
-        "estimated_mib": s.estimated_bytes as f64 / (1u64 << 20) as f64,
-        "load_ms": load_ms,
-        "quantize_ms": s.quantize_ms,
-        "kernel_ms": s.kernel_ms,
-        "polyline_ms": s.polyline_ms,
-        "voxelize_ms": s.total_ms,
-        "write_ms": write_ms,
-    });
-    if let Some(solid) = &s.solid {
-        let obj = j.as_object_mut().expect("json! of an object literal");
-        obj.insert("inside".into(), args.inside.name().into());
-        obj.insert("caps".into(), solid.caps.into());
-        obj.insert("crossings".into(), solid.crossings.into());
-        obj.insert("refined_bricks".into(), solid.refined_bricks.into());
-        obj.insert("winding_ambiguous".into(), solid.ambiguous.into());
-        obj.insert("winding_point_queries".into(), solid.point_queries.into());
-        obj.insert("winding_box_queries".into(), solid.box_queries.into());
-    }
+    let mut j = result_json(&args, mesh_path, &args.output, &v, load_ms, write_ms);
     if let Some((m, measure_ms)) = measured {
         let m = m?;
         insert_measures(

@@ -12,6 +12,13 @@
 //! polylines; `POINTS` are skipped and counted. Accessors are checked against
 //! their buffer views and buffers before they are read (a truncated `.bin`
 //! is an error, not a panic); sparse accessors are not supported.
+//!
+//! [`load`] reads a file; [`parse`] takes the bytes (and, optionally, the
+//! folder external buffers are read from). The `gltf` crate's parsing,
+//! validation, buffer import and accessor reads run under
+//! [`crate::guard::contain`]: its validator, for one, indexes `accessors[i]`
+//! with the file's `POSITION` index before checking it, which used to end
+//! the process (exit 101) and is now a typed error.
 
 use std::path::Path;
 

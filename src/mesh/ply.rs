@@ -21,6 +21,7 @@
 //! Calls into `ply-rs-bw` run under [`crate::guard::contain`]: a panic in it
 //! becomes [`VoxkitError::Invalid`].
 
+use std::borrow::Cow;
 use std::path::Path;
 
 use glam::DVec3;
@@ -321,16 +322,16 @@ fn is_face_list(key: &str) -> bool {
 impl Face {
     /// The face's indices, checked: none negative, none `>= n`, at least
     /// three of them.
-    fn indices(&self, name: &str, f: usize, n: usize) -> Result<Vec<u32>> {
+    fn indices(&self, name: &str, f: usize, n: usize) -> Result<Cow<'_, [u32]>> {
         let err = |msg: String| VoxkitError::invalid(format!("{name}: PLY face {f}: {msg}"));
-        let idx: Vec<u32> = if self.signed.is_empty() {
-            self.unsigned.clone()
+        let idx: Cow<'_, [u32]> = if self.signed.is_empty() {
+            Cow::Borrowed(&self.unsigned)
         } else {
             let mut out = Vec::with_capacity(self.signed.len());
             for &i in &self.signed {
                 out.push(u32::try_from(i).map_err(|_| err(format!("negative vertex index {i}")))?);
             }
-            out
+            Cow::Owned(out)
         };
         if idx.len() < 3 {
             return Err(err(format!(

@@ -3,10 +3,12 @@
 //!
 //! STL stores each triangle with its own three corners (f32). Corners with
 //! bitwise-equal coordinates (after `-0.0` is read as `0.0`) become one
-//! vertex, so that code that works on indices (solid mode's boundary and
-//! caps in [`crate::voxelize`]) sees a closed STL as a closed mesh. Corners
-//! that differ in the last bit stay distinct: merging by distance would
-//! change the geometry. Facet normals are ignored (voxelization uses the
+//! vertex, so a closed STL is an indexed closed mesh like the OBJ or PLY it
+//! was exported from: code that works on indices sees shared edges, and the
+//! summary counts real vertices. (Solid mode's boundary and caps compare
+//! quantized positions, so they see the same either way.) Corners that
+//! differ in the last bit stay distinct: merging by distance would change
+//! the geometry. Facet normals are ignored (voxelization uses the
 //! corners' order).
 //!
 //! Which encoding: a file of exactly `84 + 50·n` bytes, `n` being the count

@@ -557,6 +557,39 @@ pub fn first_hit(occ: &OccupancyGrid, seg: &Segment, kind: RayKind, skip: bool) 
     cast::first_hit(occ, seg, kind, skip, &mut cast::CastCounters::default())
 }
 
+/// The fixed-point segment that every ray kind of [`render_grid`] walks for
+/// pixel `(x, y)` of a `width × height` image (the pixel's ray clipped
+/// 2^-12 voxel inside the occupied box, then quantized), or `None` where the
+/// ray misses that box. For oracles that judge a rendered image pixel by
+/// pixel.
+///
+/// ```
+/// use glam::{DVec3, IVec3};
+/// use voxkit::camera::Camera;
+/// use voxkit::grid::{BrickGrid, GridFrame, MemoryLimit};
+/// use voxkit::render::{pixel_segment, GridTransform, OccupancyGrid};
+/// let grid: BrickGrid = [IVec3::new(4, 4, 4)].into_iter().collect();
+/// let occ = OccupancyGrid::new(&grid, [9, 9, 9], MemoryLimit::DEFAULT).unwrap();
+/// let xf = GridTransform::from_frame(&GridFrame::new(DVec3::ZERO, 1.0, [9, 9, 9])).unwrap();
+/// let cam = Camera::perspective(DVec3::new(4.5, 4.5, 30.0), DVec3::splat(4.5), DVec3::Y, 20.0);
+/// let s = pixel_segment(&occ, &xf, &cam, 32, 32, 16, 16).unwrap();
+/// assert_eq!((s.start_voxel(), s.end_voxel()), (IVec3::splat(4), IVec3::splat(4)));
+/// assert!(pixel_segment(&occ, &xf, &cam, 32, 32, 0, 0).is_none());
+/// ```
+pub fn pixel_segment(
+    occ: &OccupancyGrid,
+    xf: &GridTransform,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    x: u32,
+    y: u32,
+) -> Option<Segment> {
+    RaySetup::new(camera, xf, occ.bounds(), width, height)
+        .pixel(x, y)
+        .1
+}
+
 /// The camera checks a render needs (the rasterizer's clip distances do not
 /// matter to rays).
 pub(crate) fn camera_check(camera: &Camera) -> Result<()> {

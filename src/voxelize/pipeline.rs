@@ -477,27 +477,161 @@ pub fn estimate_bytes(
 /// assert_eq!(v.stats.voxels, 36);
 /// ```
 pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization> {
-    let start = Instant::now();
-    let total_phases = 3 + u64::from(opts.mode == VoxelizeMode::Solid);
-    let mut done = 0;
-    let mut report = |phase: &'static str| {
-        if let Some(p) = &opts.progress {
-            p(Progress {
-                phase,
-                done,
-                total: total_phases,
-            });
+    prepare_mesh(mesh, opts)?.voxelize()
+}
+
+/// Progress phases of a run of `mode`.
+fn total_phases(mode: VoxelizeMode) -> u64 {
+    3 + u64::from(mode == VoxelizeMode::Solid)
+}
+
+fn report_progress(opts: &VoxelizeOptions, phase: &'static str, done: u64) {
+    if let Some(p) = &opts.progress {
+        p(Progress {
+            phase,
+            done,
+            total: total_phases(opts.mode),
+        });
+    }
+}
+
+/// A mesh fitted, quantized and checked against the memory limit: steps 1–3
+/// of [`voxelize_mesh`], nothing large allocated yet. Its
+/// [`estimated_bytes`](PreparedMesh::estimated_bytes) lets a caller that runs
+/// several meshes at once (the batch CLI) budget memory across them before
+/// [`PreparedMesh::voxelize`] allocates.
+///
+/// ```
+/// use glam::DVec3;
+/// use voxkit::mesh::Mesh;
+/// use voxkit::voxelize::pipeline::{VoxelizeMode, VoxelizeOptions, prepare_mesh, voxelize_mesh};
+/// let m = Mesh::from_parts("tri", vec![DVec3::ZERO, DVec3::X, DVec3::Y], vec![[0, 1, 2]], vec![]).unwrap();
+/// let opts = VoxelizeOptions::new(8, VoxelizeMode::Thin);
+/// let prepared = prepare_mesh(&m, &opts).unwrap();
+/// assert!(prepared.estimated_bytes() > 0);
+/// let v = prepared.voxelize().unwrap();
+/// assert_eq!(v.grid, voxelize_mesh(&m, &opts).unwrap().grid);
+/// ```
+pub struct PreparedMesh<'a> {
+    mesh: &'a Mesh,
+    opts: &'a VoxelizeOptions,
+    frame: GridFrame,
+    quantized: QuantizedMesh,
+    estimated_bytes: u64,
+    quantize_ms: f64,
+}
+
+impl PreparedMesh<'_> {
+    /// The estimated peak bytes of [`PreparedMesh::voxelize`] (what the
+    /// limit was checked against; see [`estimate_bytes`]).
+    pub fn estimated_bytes(&self) -> u64 {
+        self.estimated_bytes
+    }
+
+    /// The fitted grid frame.
+    pub fn frame(&self) -> &GridFrame {
+        &self.frame
+    }
+
+    /// Step 4 of [`voxelize_mesh`]: runs the mode.
+    ///
+    /// # Errors
+    /// [`VoxkitError::Unsupported`] from the solid fill for triangles
+    /// spanning 2^20 voxels or more.
+    pub fn voxelize(self) -> Result<Voxelization> {
+        let PreparedMesh {
+            mesh,
+            opts,
+            frame,
+            quantized,
+            estimated_bytes: estimated,
+            quantize_ms,
+        } = self;
+        let start = Instant::now();
+        let mut done = 1;
+        let mut report = |phase: &'static str| {
+            report_progress(opts, phase, done);
+            done += 1;
+        };
+        let (triangles, skipped, segments) = (
+            &quantized.triangles,
+            &quantized.degenerate,
+            &quantized.segments,
+        );
+        let kk = opts.snap && opts.kahan_kelsen;
+        let dims_i = frame.dims.map(|d| d as i32);
+        let t0 = Instant::now();
+        let mut solid_stats = None;
+        let mut grid = match opts.mode {
+            VoxelizeMode::Thin | VoxelizeMode::Thick => {
+                report("surface");
+                let surface = if opts.mode == VoxelizeMode::Thin {
+                    SurfaceMode::Thin
+                } else {
+                    SurfaceMode::Thick
+                };
+                bricks_to_grid(surface_bricks(triangles, dims_i, surface, kk)?)
+            }
+            VoxelizeMode::Conservative => {
+                report("conservative");
+                conservative_grid(triangles.par_iter().map(to_reference), frame.dims)
+            }
+            VoxelizeMode::Solid => {
+                report("surface");
+                let mut g =
+                    bricks_to_grid(surface_bricks(triangles, dims_i, SurfaceMode::Thin, kk)?);
+                report("solid");
+                let (inside, s) = solid_interior(triangles, skipped, frame.dims, opts.inside, &g)?;
+                solid_stats = Some(s);
+                g.union_with(&inside);
+                g
+            }
+        };
+        let kernel_ms = ms(t0.elapsed());
+
+        report("polylines");
+        let t1 = Instant::now();
+        if !segments.is_empty() {
+            grid.union_with(&polyline_voxels(segments, opts.mode, frame.dims)?);
         }
-        done += 1;
-    };
-    report("quantize");
+        let polyline_ms = ms(t1.elapsed());
+        report("done");
+
+        let stats = VoxelizeStats {
+            triangles: triangles.len(),
+            skipped_triangles: skipped.len(),
+            segments: segments.len(),
+            voxels: grid.count(),
+            bricks: grid.brick_count(),
+            estimated_bytes: estimated,
+            quantize_ms,
+            kernel_ms,
+            polyline_ms,
+            total_ms: quantize_ms + ms(start.elapsed()),
+            solid: solid_stats,
+        };
+        Ok(Voxelization {
+            grid,
+            frame,
+            stats,
+            exact: opts.snap.then(|| quantize_mesh(mesh, &frame, false)),
+            mesh: quantized,
+        })
+    }
+}
+
+/// Steps 1–3 of [`voxelize_mesh`]: fits the frame, quantizes the mesh and
+/// checks the memory estimate against `opts.limit`.
+///
+/// # Errors
+/// [`VoxkitError::Invalid`] for a zero resolution or a mesh without extent;
+/// [`VoxkitError::Limits`] when the estimate exceeds `opts.limit`.
+pub fn prepare_mesh<'a>(mesh: &'a Mesh, opts: &'a VoxelizeOptions) -> Result<PreparedMesh<'a>> {
+    let start = Instant::now();
+    report_progress(opts, "quantize", 0);
     let frame = opts.lattice.fit(mesh.bounds())?;
     let quantized = quantize_mesh(mesh, &frame, opts.snap);
-    let (triangles, skipped, segments) = (
-        &quantized.triangles,
-        &quantized.degenerate,
-        &quantized.segments,
-    );
+    let (triangles, segments) = (&quantized.triangles, &quantized.segments);
     let mut estimated = estimate_bytes(triangles, segments.len(), frame.dims, opts.mode);
     let kk = opts.snap && opts.kahan_kelsen;
     if kk && opts.mode != VoxelizeMode::Conservative {
@@ -522,64 +656,13 @@ pub fn voxelize_mesh(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization
         estimated as u128,
         1,
     )?;
-    let t_quant = start.elapsed();
-
-    let dims_i = frame.dims.map(|d| d as i32);
-    let t0 = Instant::now();
-    let mut solid_stats = None;
-    let mut grid = match opts.mode {
-        VoxelizeMode::Thin | VoxelizeMode::Thick => {
-            report("surface");
-            let surface = if opts.mode == VoxelizeMode::Thin {
-                SurfaceMode::Thin
-            } else {
-                SurfaceMode::Thick
-            };
-            bricks_to_grid(surface_bricks(triangles, dims_i, surface, kk)?)
-        }
-        VoxelizeMode::Conservative => {
-            report("conservative");
-            conservative_grid(triangles.par_iter().map(to_reference), frame.dims)
-        }
-        VoxelizeMode::Solid => {
-            report("surface");
-            let mut g = bricks_to_grid(surface_bricks(triangles, dims_i, SurfaceMode::Thin, kk)?);
-            report("solid");
-            let (inside, s) = solid_interior(triangles, skipped, frame.dims, opts.inside, &g)?;
-            solid_stats = Some(s);
-            g.union_with(&inside);
-            g
-        }
-    };
-    let kernel_ms = ms(t0.elapsed());
-
-    report("polylines");
-    let t1 = Instant::now();
-    if !segments.is_empty() {
-        grid.union_with(&polyline_voxels(segments, opts.mode, frame.dims)?);
-    }
-    let polyline_ms = ms(t1.elapsed());
-    report("done");
-
-    let stats = VoxelizeStats {
-        triangles: triangles.len(),
-        skipped_triangles: skipped.len(),
-        segments: segments.len(),
-        voxels: grid.count(),
-        bricks: grid.brick_count(),
-        estimated_bytes: estimated,
-        quantize_ms: ms(t_quant),
-        kernel_ms,
-        polyline_ms,
-        total_ms: ms(start.elapsed()),
-        solid: solid_stats,
-    };
-    Ok(Voxelization {
-        grid,
+    Ok(PreparedMesh {
+        mesh,
+        opts,
         frame,
-        stats,
-        exact: opts.snap.then(|| quantize_mesh(mesh, &frame, false)),
-        mesh: quantized,
+        quantized,
+        estimated_bytes: estimated,
+        quantize_ms: ms(start.elapsed()),
     })
 }
 

@@ -1,6 +1,7 @@
 //! One integration test binary (one link under fat LTO); a module per concept.
 
 mod amanatides_woo;
+mod batch_cli;
 mod bricks;
 mod conservative;
 mod demo;
@@ -10,6 +11,7 @@ mod images;
 mod lattice;
 mod line2d;
 mod lines;
+mod mesh_formats;
 mod mesh_io;
 mod raster;
 mod render;
