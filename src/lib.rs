@@ -55,6 +55,8 @@ pub mod camera;
 pub mod cli;
 pub mod error;
 pub mod fixed;
+#[doc(hidden)]
+pub mod fuzz_entry;
 pub mod grid;
 pub mod guard;
 mod hint;

@@ -50,7 +50,19 @@ pub struct LineArgs {
     pub coords: Vec<String>,
 }
 
-fn parse_segment(fields: &[&str], place: &str, text: &str) -> Result<Segment, CliError> {
+/// Parses one segment from its six number fields `x0 y0 z0 x1 y1 z1`;
+/// `place` (e.g. `line 3`) and `text` (the input as given) name it in
+/// errors. Fewer or more fields, a field that is not a number, and
+/// coordinates outside what [`Segment::from_f64`] accepts (NaN, ±inf,
+/// beyond ±2^30) are errors with exit code 2.
+///
+/// ```
+/// use voxkit::cli::line::parse_segment;
+/// assert!(parse_segment(&["0", "0", "0", "1", "2", "3.5"], "line 1", "").is_ok());
+/// assert_eq!(parse_segment(&["0", "0", "0", "1", "2"], "line 1", "").unwrap_err().code, 2);
+/// assert!(parse_segment(&["0", "0", "0", "1", "2", "inf"], "line 1", "").is_err());
+/// ```
+pub fn parse_segment(fields: &[&str], place: &str, text: &str) -> Result<Segment, CliError> {
     if fields.len() != 6 {
         return Err(CliError::bad_input(format!(
             "{place}: expected 6 numbers `x0 y0 z0 x1 y1 z1`, got {}: {text:?}",
@@ -67,49 +79,72 @@ fn parse_segment(fields: &[&str], place: &str, text: &str) -> Result<Segment, Cl
         .map_err(|e| CliError::bad_input(format!("{place}: {e} in {text:?}")))
 }
 
-fn voxels(args: &LineArgs, seg: &Segment) -> Result<Vec<IVec3>, CliError> {
-    Ok(match args.algo {
-        LineAlgo::TwentySix => Line26::new(seg).collect(),
-        LineAlgo::Eighteen => Line18::new(seg).collect(),
-        LineAlgo::Tripod => Tripod6::new(seg).collect(),
-        LineAlgo::Adaptive => {
-            let fb = args.flag_box.clone();
-            AdaptiveRay::new(seg, move |v: IVec3| match &fb {
-                Some(b) => {
-                    let (lo, hi) = (IVec3::new(b[0], b[1], b[2]), IVec3::new(b[3], b[4], b[5]));
-                    v.cmpge(lo).all() && v.cmple(hi).all()
-                }
-                None => false,
-            })
-            .collect()
+/// Parses stdin line `number` (1-based, for errors): a segment, or `None`
+/// for a blank line.
+///
+/// ```
+/// use voxkit::cli::line::parse_line;
+/// assert!(parse_line("  \t ", 1).unwrap().is_none());
+/// assert!(parse_line("0 0 0  1 1 1", 2).unwrap().is_some());
+/// assert!(parse_line("0 0 0 1 1", 3).unwrap_err().message.starts_with("line 3"));
+/// ```
+pub fn parse_line(line: &str, number: usize) -> Result<Option<Segment>, CliError> {
+    let fields: Vec<&str> = line.split_whitespace().collect();
+    if fields.is_empty() {
+        return Ok(None);
+    }
+    parse_segment(&fields, &format!("line {number}"), line.trim()).map(Some)
+}
+
+/// The voxels of `seg` drawn by `algo` (`flag_box`: see
+/// [`LineArgs::flag_box`], checked to hold 6 numbers by the caller), as an
+/// iterator: a segment may have up to ~2^31 voxels, so callers stream them
+/// rather than collect them.
+pub fn voxels<'a>(
+    algo: LineAlgo,
+    flag_box: Option<&'a [i32]>,
+    seg: &Segment,
+) -> Result<Box<dyn Iterator<Item = IVec3> + 'a>, CliError> {
+    Ok(match algo {
+        LineAlgo::TwentySix => Box::new(Line26::new(seg)),
+        LineAlgo::Eighteen => Box::new(Line18::new(seg)),
+        LineAlgo::Tripod => Box::new(Tripod6::new(seg)),
+        LineAlgo::Adaptive => Box::new(AdaptiveRay::new(seg, move |v: IVec3| match flag_box {
+            Some(b) => {
+                let (lo, hi) = (IVec3::new(b[0], b[1], b[2]), IVec3::new(b[3], b[4], b[5]));
+                v.cmpge(lo).all() && v.cmple(hi).all()
+            }
+            None => false,
+        })),
+        LineAlgo::Aw => {
+            // Amanatides–Woo runs in f64 on the segment's (fixed-point) endpoints.
+            let p = |q: crate::fixed::FixedPoint| {
+                glam::DVec3::new(
+                    crate::fixed::to_f64(q[0]),
+                    crate::fixed::to_f64(q[1]),
+                    crate::fixed::to_f64(q[2]),
+                )
+            };
+            Box::new(crate::line::amanatides_woo::aw_line(
+                p(seg.a()),
+                p(seg.b()),
+            )?)
         }
-        LineAlgo::Aw => aw_voxels(seg)?,
     })
 }
 
-fn aw_voxels(seg: &Segment) -> Result<Vec<IVec3>, CliError> {
-    // Amanatides–Woo runs in f64 on the segment's (fixed-point) endpoints.
-    let p = |q: crate::fixed::FixedPoint| {
-        glam::DVec3::new(
-            crate::fixed::to_f64(q[0]),
-            crate::fixed::to_f64(q[1]),
-            crate::fixed::to_f64(q[2]),
-        )
-    };
-    Ok(crate::line::amanatides_woo::aw_line(p(seg.a()), p(seg.b()))?.collect())
-}
-
-fn write_line(out: &mut dyn Write, vs: &[IVec3]) -> Result<(), CliError> {
-    let mut s = String::with_capacity(vs.len() * 12 + 2);
-    s.push('[');
-    for (i, v) in vs.iter().enumerate() {
+/// Writes one JSON array of the voxels, streamed: a segment of 10^9 voxels
+/// (`voxkit line 0 0 0 1e9 1e9 1e9`) prints in constant memory instead of
+/// collecting gigabytes first.
+fn write_line(out: &mut dyn Write, vs: impl Iterator<Item = IVec3>) -> Result<(), CliError> {
+    out.write_all(b"[")?;
+    for (i, v) in vs.enumerate() {
         if i > 0 {
-            s.push(',');
+            out.write_all(b",")?;
         }
-        s.push_str(&format!("[{},{},{}]", v.x, v.y, v.z));
+        write!(out, "[{},{},{}]", v.x, v.y, v.z)?;
     }
-    s.push_str("]\n");
-    out.write_all(s.as_bytes())?;
+    out.write_all(b"]\n")?;
     Ok(())
 }
 
@@ -136,19 +171,16 @@ pub fn run(args: LineArgs, out: &mut dyn Write) -> Result<(), CliError> {
             let fields: Vec<&str> = chunk.iter().map(String::as_str).collect();
             let text = chunk.join(" ");
             let seg = parse_segment(&fields, &format!("segment {}", i + 1), &text)?;
-            write_line(out, &voxels(&args, &seg)?)?;
+            write_line(out, voxels(args.algo, args.flag_box.as_deref(), &seg)?)?;
         }
         return Ok(());
     }
     let stdin = std::io::stdin();
     for (i, line) in stdin.lock().lines().enumerate() {
-        let line = line?;
-        let fields: Vec<&str> = line.split_whitespace().collect();
-        if fields.is_empty() {
+        let Some(seg) = parse_line(&line?, i + 1)? else {
             continue;
-        }
-        let seg = parse_segment(&fields, &format!("line {}", i + 1), line.trim())?;
-        write_line(out, &voxels(&args, &seg)?)?;
+        };
+        write_line(out, voxels(args.algo, args.flag_box.as_deref(), &seg)?)?;
     }
     Ok(())
 }

@@ -91,7 +91,8 @@ pub struct RenderArgs {
     /// View direction preset (ignored with --eye).
     #[arg(long, value_enum, default_value = "iso")]
     pub view: ViewPreset,
-    /// Write N frames around the vertical axis.
+    /// Write N frames around the vertical axis (at most 100000; a GIF's frames
+    /// must fit --max-memory).
     #[arg(long, value_name = "N")]
     pub turntable: Option<u32>,
     /// Render each frame N times and report the median time (benchmarking).
@@ -287,7 +288,12 @@ fn load(args: &RenderArgs, limit: MemoryLimit) -> Result<Input, CliError> {
 }
 
 /// The camera for the options, framing the world box `[lo, hi]`.
-fn camera(args: &RenderArgs, lo: DVec3, hi: DVec3, axes: SceneAxes) -> Result<Camera, CliError> {
+pub(crate) fn camera(
+    args: &RenderArgs,
+    lo: DVec3,
+    hi: DVec3,
+    axes: SceneAxes,
+) -> Result<Camera, CliError> {
     let (w, h) = args.size;
     let fov = (!args.ortho).then_some(args.fov);
     if !(args.fov > 0.0 && args.fov < 180.0) {
@@ -322,13 +328,51 @@ fn camera(args: &RenderArgs, lo: DVec3, hi: DVec3, axes: SceneAxes) -> Result<Ca
     Ok(cam)
 }
 
-/// Runs `voxkit render`.
-pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
-    let limit = MemoryLimit::new(args.max_memory.saturating_mul(1 << 20));
+/// Most turntable frames: each is a file (PNG) or held in memory until the
+/// GIF is written, and every output name is checked before rendering.
+pub(crate) const MAX_FRAMES: u32 = 100_000;
+
+/// The number of frames `args` asks for, checked before any is rendered or
+/// named: at least one, at most [`MAX_FRAMES`], and a GIF's frames (RGBA,
+/// kept until it is written) within `limit`.
+pub(crate) fn check_frames(args: &RenderArgs, limit: MemoryLimit) -> Result<u32, CliError> {
     let frames = args.turntable.unwrap_or(1);
     if frames == 0 {
         return Err(CliError::bad_input("--turntable needs at least one frame"));
     }
+    if frames > MAX_FRAMES {
+        return Err(CliError::bad_input(format!(
+            "--turntable {frames}: at most {MAX_FRAMES} frames"
+        )));
+    }
+    if is_gif(&args.output) {
+        let (w, h) = args.size;
+        limit.check(
+            &format!("{frames} GIF frames of {w}x{h}"),
+            u128::from(frames) * u128::from(w) * u128::from(h),
+            4,
+        )?;
+    }
+    Ok(frames)
+}
+
+/// The camera of frame `i` of `frames`: a turntable orbits the base camera
+/// about the scene's up axis through the target.
+pub(crate) fn frame_camera(base: &Camera, axes: SceneAxes, i: u32, frames: u32) -> Camera {
+    if frames > 1 {
+        base.orbited(
+            axes.up,
+            std::f64::consts::TAU * f64::from(i) / f64::from(frames),
+        )
+    } else {
+        *base
+    }
+}
+
+/// Runs `voxkit render`.
+pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
+    let limit = MemoryLimit::new(args.max_memory.saturating_mul(1 << 20));
+    let frames = check_frames(&args, limit)?;
     if args.reps == 0 {
         return Err(CliError::bad_input("--reps needs at least one render"));
     }
@@ -436,11 +480,7 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let mut first: Option<(RenderImage, RenderStats, Camera)> = None;
     let mut gif_frames = Vec::new();
     for i in 0..frames {
-        let cam = if frames > 1 {
-            base_cam.orbited(axes.up, std::f64::consts::TAU * i as f64 / frames as f64)
-        } else {
-            base_cam
-        };
+        let cam = frame_camera(&base_cam, axes, i, frames);
         let mut rendered = renderer.render(&xf, &cam, &opts)?;
         times.push(rendered.1.render_ms);
         for _ in 1..args.reps {
@@ -572,7 +612,10 @@ impl Renderer {
 }
 
 /// The volume options of the arguments (defaults from the data).
-fn volume_options(args: &RenderArgs, vol: &ScalarVolume) -> Result<VolumeOptions, CliError> {
+pub(crate) fn volume_options(
+    args: &RenderArgs,
+    vol: &ScalarVolume,
+) -> Result<VolumeOptions, CliError> {
     let mut v = VolumeOptions::new(vol, VolumeMode::Mip);
     if let Some(win) = args.window {
         v.window = win;

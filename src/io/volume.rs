@@ -60,6 +60,10 @@ const CHUNK: usize = 1 << 16;
 /// transposed through.
 const NPY_BLOCK_BYTES: usize = 8 << 20;
 
+/// Most data files a header may name (a `LIST` or a `%d` pattern): a
+/// pattern's names are built in memory, and each file is opened in turn.
+const MAX_DATA_FILES: u128 = 1 << 16;
+
 /// Longest text sample accepted in ASCII data.
 const MAX_TOKEN: usize = 64;
 
@@ -93,10 +97,42 @@ pub fn is_volume_path(path: &Path) -> bool {
 /// type; their count is checked against `limit` before allocating. Every
 /// error names the file.
 pub fn read_volume(path: &Path, limit: MemoryLimit) -> Result<ScalarVolume> {
+    read_from(&Files::Disk, path, limit)
+}
+
+/// [`read_volume`] from memory: `header` is the content of the file `name`
+/// (whose extension chooses the format), and every data file its header
+/// names, whatever the name, reads as `data` (so a detached `.nhdr` or
+/// `.mhd` with a `LIST` of slices reads `data` once per slice). Attached
+/// formats ignore `data`. For tests and fuzzing: no file is opened.
+///
+/// ```
+/// use voxkit::{grid::MemoryLimit, io::volume::read_volume_bytes};
+/// let header = b"NDims = 3\nDimSize = 2 1 1\nElementType = MET_UCHAR\nElementDataFile = v.raw\n";
+/// let v = read_volume_bytes("v.mhd".as_ref(), header, &[7, 9], MemoryLimit::DEFAULT).unwrap();
+/// assert_eq!((v.get(0, 0, 0), v.get(1, 0, 0)), (7.0, 9.0));
+/// // Data of the wrong size is an error naming both sizes.
+/// assert!(read_volume_bytes("v.mhd".as_ref(), header, &[7], MemoryLimit::DEFAULT).is_err());
+/// ```
+pub fn read_volume_bytes(
+    name: &Path,
+    header: &[u8],
+    data: &[u8],
+    limit: MemoryLimit,
+) -> Result<ScalarVolume> {
+    let files = Files::Memory {
+        header_path: name,
+        header,
+        data,
+    };
+    read_from(&files, name, limit)
+}
+
+fn read_from(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVolume> {
     let result = match format_of(path) {
-        Some(Format::Nrrd) => read_nrrd(path, limit),
-        Some(Format::MetaImage) => read_metaimage(path, limit),
-        Some(Format::Npy) => read_npy(path, limit),
+        Some(Format::Nrrd) => read_nrrd(files, path, limit),
+        Some(Format::MetaImage) => read_metaimage(files, path, limit),
+        Some(Format::Npy) => read_npy(files, path, limit),
         None => Err(VoxkitError::Unsupported(
             "not a volume file (expected .nrrd, .nhdr, .mhd, .mha or .npy)".into(),
         )),
@@ -131,6 +167,45 @@ fn name_file(path: &Path, e: VoxkitError) -> VoxkitError {
             source,
         },
         other => other,
+    }
+}
+
+/// Where the readers' files come from.
+enum Files<'a> {
+    /// The file system.
+    Disk,
+    /// Memory: the header file, and one content for every other file.
+    Memory {
+        header_path: &'a Path,
+        header: &'a [u8],
+        data: &'a [u8],
+    },
+}
+
+/// A readable, seekable file content.
+trait ReadSeek: Read + Seek {}
+impl<T: Read + Seek> ReadSeek for T {}
+
+/// An open file of [`Files`] and its length.
+type Opened<'a> = (Box<dyn ReadSeek + 'a>, u64);
+
+impl Files<'_> {
+    fn open(&self, path: &Path) -> Result<Opened<'_>> {
+        match self {
+            Files::Disk => {
+                let file = File::open(path).map_err(io_at(path))?;
+                let len = file.metadata().map_err(io_at(path))?.len();
+                Ok((Box::new(file), len))
+            }
+            Files::Memory {
+                header_path,
+                header,
+                data,
+            } => {
+                let bytes: &[u8] = if path == *header_path { header } else { data };
+                Ok((Box::new(io::Cursor::new(bytes)), bytes.len() as u64))
+            }
+        }
     }
 }
 
@@ -218,8 +293,8 @@ struct Head {
     whole_file: bool,
 }
 
-fn read_head(path: &Path) -> Result<Head> {
-    let file = File::open(path).map_err(io_at(path))?;
+fn read_head(files: &Files, path: &Path) -> Result<Head> {
+    let (file, _) = files.open(path)?;
     let mut bytes = Vec::new();
     file.take(MAX_HEADER as u64 + 1)
         .read_to_end(&mut bytes)
@@ -480,6 +555,11 @@ fn expand_pattern(fmt: &str, min: i64, max: i64, step: i64, expected: u128) -> R
             "data file pattern names {count} files, the sizes need {expected}"
         )));
     }
+    if count as u128 > MAX_DATA_FILES {
+        return Err(unsupported(format!(
+            "data file pattern names {count} files; at most {MAX_DATA_FILES} are read"
+        )));
+    }
     let (head, zero_pad, width, tail) = parse_int_format(fmt)?;
     Ok((0..count)
         .map(|i| {
@@ -541,15 +621,17 @@ macro_rules! by_type {
 /// Reads the `nx·ny·nz` samples (the limit was checked by
 /// [`checked_dims`]) from `pieces`, each holding an equal share.
 fn read_samples(
+    files: &Files,
     pieces: &[Piece],
     s: &Storage,
     dims: Dims,
     limit: MemoryLimit,
 ) -> Result<crate::grid::VolumeData> {
-    by_type!(s.ty, read_typed(pieces, s, dims, limit))
+    by_type!(s.ty, read_typed(files, pieces, s, dims, limit))
 }
 
 fn read_typed<T: Sample>(
+    files: &Files,
     pieces: &[Piece],
     s: &Storage,
     dims: Dims,
@@ -565,7 +647,7 @@ fn read_typed<T: Sample>(
     }
     let mut out = reserve::<T>(n, limit)?;
     for p in pieces {
-        read_piece(p, s, per, &mut out)?;
+        read_piece(files, p, s, per, &mut out)?;
     }
     Ok(T::wrap(out))
 }
@@ -583,10 +665,15 @@ fn reserve<T>(n: usize, limit: MemoryLimit) -> Result<Vec<T>> {
 }
 
 /// Appends the `count` samples of one piece to `out`.
-fn read_piece<T: Sample>(p: &Piece, s: &Storage, count: usize, out: &mut Vec<T>) -> Result<()> {
+fn read_piece<T: Sample>(
+    files: &Files,
+    p: &Piece,
+    s: &Storage,
+    count: usize,
+    out: &mut Vec<T>,
+) -> Result<()> {
     let path = &p.path;
-    let mut file = File::open(path).map_err(io_at(path))?;
-    let len = file.metadata().map_err(io_at(path))?.len();
+    let (mut file, len) = files.open(path)?;
     file.seek(SeekFrom::Start(p.start)).map_err(io_at(path))?;
     let mut r = BufReader::new(file);
     let skipped = skip_lines(&mut r, s.line_skip)
@@ -617,7 +704,7 @@ fn read_piece<T: Sample>(p: &Piece, s: &Storage, count: usize, out: &mut Vec<T>)
 #[allow(clippy::too_many_arguments)]
 fn read_raw<T: Sample>(
     path: &Path,
-    mut r: BufReader<File>,
+    mut r: BufReader<Box<dyn ReadSeek + '_>>,
     pos: u64,
     len: u64,
     need: u64,
@@ -652,7 +739,7 @@ fn read_raw<T: Sample>(
 #[allow(clippy::too_many_arguments)]
 fn read_compressed<T: Sample>(
     path: &Path,
-    mut r: BufReader<File>,
+    mut r: BufReader<Box<dyn ReadSeek + '_>>,
     pos: u64,
     len: u64,
     need: u64,
@@ -1056,8 +1143,8 @@ fn parse_int(what: &str, s: &str) -> Result<i64> {
         .map_err(|_| invalid(format!("{what} {s:?} is not an integer")))
 }
 
-fn read_nrrd(path: &Path, limit: MemoryLimit) -> Result<ScalarVolume> {
-    let f = nrrd_fields(&read_head(path)?)?;
+fn read_nrrd(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVolume> {
+    let f = nrrd_fields(&read_head(files, path)?)?;
     let ty = nrrd_type(f.require("type", "type")?)?;
     let dimension = parse_int("dimension", f.require("dimension", "dimension")?)?;
     if dimension != 3 {
@@ -1100,7 +1187,7 @@ fn read_nrrd(path: &Path, limit: MemoryLimit) -> Result<ScalarVolume> {
         file_skip,
         decoded_skip,
     };
-    let data = read_samples(&pieces, &storage, dims, limit)?;
+    let data = read_samples(files, &pieces, &storage, dims, limit)?;
     ScalarVolume::new(dims, data, frame)
 }
 
@@ -1191,8 +1278,8 @@ fn meta_frame(f: &Fields) -> Result<VolumeFrame> {
     Ok(frame)
 }
 
-fn read_metaimage(path: &Path, limit: MemoryLimit) -> Result<ScalarVolume> {
-    let f = meta_fields(&read_head(path)?)?;
+fn read_metaimage(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVolume> {
+    let f = meta_fields(&read_head(files, path)?)?;
     if let Some(t) = f.get(&["objecttype"])
         && !t.eq_ignore_ascii_case("image")
     {
@@ -1248,7 +1335,7 @@ fn read_metaimage(path: &Path, limit: MemoryLimit) -> Result<ScalarVolume> {
         file_skip,
         decoded_skip: 0,
     };
-    let data = read_samples(&pieces, &storage, dims, limit)?;
+    let data = read_samples(files, &pieces, &storage, dims, limit)?;
     ScalarVolume::new(dims, data, frame)
 }
 
@@ -1377,9 +1464,9 @@ fn read_npy_preamble(r: &mut impl Read) -> Result<(String, u64)> {
     ))
 }
 
-fn read_npy(path: &Path, limit: MemoryLimit) -> Result<ScalarVolume> {
-    let mut r = BufReader::new(File::open(path).map_err(io_at(path))?);
-    let len = r.get_ref().metadata().map_err(io_at(path))?.len();
+fn read_npy(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVolume> {
+    let (file, len) = files.open(path)?;
+    let mut r = BufReader::new(file);
     let (dict, start) = read_npy_preamble(&mut r)?;
     let h = parse_npy_header(&dict)?;
     let sizes: [u64; 3] = h.shape.clone().try_into().map_err(|_| {
@@ -1635,6 +1722,21 @@ mod tests {
             expand_pattern("q", 1, 1, 1, 1),
             Err(VoxkitError::Unsupported(_))
         ));
+        // A pattern whose count matches the sizes but names more files than
+        // are ever read is refused before its names are built (a 1×1×2^28
+        // uint8 volume is only 256 MiB).
+        let many = 1i64 << 28;
+        assert!(matches!(
+            expand_pattern("q%d", 1, many, 1, many as u128),
+            Err(VoxkitError::Unsupported(_))
+        ));
+        let most = MAX_DATA_FILES as i64;
+        assert_eq!(
+            expand_pattern("q%d", 1, most, 1, most as u128)
+                .unwrap()
+                .len() as i64,
+            most
+        );
     }
 
     #[test]

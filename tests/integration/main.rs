@@ -6,6 +6,7 @@ mod bricks;
 mod conservative;
 mod demo;
 mod formats;
+mod fuzz_regressions;
 mod images;
 mod lattice;
 mod line2d;

@@ -1,0 +1,5 @@
+#![no_main]
+// See voxkit::fuzz_entry::obj.
+libfuzzer_sys::fuzz_target!(|data: &[u8]| {
+    let _ = voxkit::fuzz_entry::obj(data);
+});
