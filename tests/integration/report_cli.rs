@@ -80,8 +80,11 @@ fn quick_report_has_every_table_row_and_plot() {
         String::from_utf8_lossy(&out.stderr)
     );
     let md = std::fs::read_to_string(&md_path).unwrap();
+    // No measurement is NaN or infinite (the stability section's texts name
+    // NaN and ∞ inputs, so only what comes before it is searched).
+    let measured = md.split("## Numerical stability").next().unwrap();
     for word in ["NaN", "| inf", "inf |"] {
-        assert!(!md.contains(word), "{word} in the report");
+        assert!(!measured.contains(word), "{word} in the report");
     }
     for section in [
         "## Machine",
