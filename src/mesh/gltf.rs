@@ -33,10 +33,7 @@ use crate::guard::contain;
 /// file's folder as the base for external buffers.
 pub fn load(path: &Path) -> Result<Mesh> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| VoxkitError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = super::read_file(path)?;
     let base = path.parent().unwrap_or(Path::new("."));
     parse(&bytes, Some(base), &name)
 }

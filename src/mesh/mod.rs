@@ -229,6 +229,14 @@ pub fn is_mesh_path(path: &Path) -> bool {
     MESH_EXTENSIONS.contains(&extension_of(path).as_str())
 }
 
+/// A mesh file's bytes; a failure is [`VoxkitError::Io`] naming the file.
+fn read_file(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|source| VoxkitError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
 /// The lower-case extension of `path` ("" when it has none).
 fn extension_of(path: &Path) -> String {
     path.extension()

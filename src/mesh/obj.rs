@@ -26,10 +26,7 @@ use crate::error::{Result, VoxkitError};
 
 /// Loads an OBJ file. See the module docs for what is checked.
 pub fn load(path: &Path) -> Result<Mesh> {
-    let bytes = std::fs::read(path).map_err(|source| VoxkitError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = super::read_file(path)?;
     let name = path.display().to_string();
     let text = String::from_utf8(bytes).map_err(|e| {
         VoxkitError::invalid(format!(

@@ -44,10 +44,7 @@ const MIN_FACE_BYTES: u128 = 8;
 
 /// Loads a `.off` file. See the module docs.
 pub fn load(path: &Path) -> Result<Mesh> {
-    let bytes = std::fs::read(path).map_err(|source| VoxkitError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = super::read_file(path)?;
     parse(&bytes, &path.display().to_string())
 }
 

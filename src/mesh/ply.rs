@@ -40,10 +40,7 @@ const KRATE: &str = "ply-rs-bw";
 
 /// Loads a `.ply` file. See the module docs.
 pub fn load(path: &Path) -> Result<Mesh> {
-    let bytes = std::fs::read(path).map_err(|source| VoxkitError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = super::read_file(path)?;
     parse(&bytes, &path.display().to_string())
 }
 

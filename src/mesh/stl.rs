@@ -42,10 +42,7 @@ const BINARY_RECORD: usize = 50;
 
 /// Loads a `.stl` file. See the module docs.
 pub fn load(path: &Path) -> Result<Mesh> {
-    let bytes = std::fs::read(path).map_err(|source| VoxkitError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = super::read_file(path)?;
     parse(&bytes, &path.display().to_string())
 }
 
