@@ -62,6 +62,11 @@ pub struct LoadSummary {
     /// Elements skipped because voxelization has no use for them (OBJ `p`
     /// records, glTF `POINTS` primitives): counted points.
     pub skipped_points: usize,
+    /// What the loader ignored or could only partly read while still loading
+    /// the geometry (an unreadable material library, vertex colours on only
+    /// some vertices, ...): one human line each, printed to stderr by the
+    /// command line and listed under `warnings` in its `--json` output.
+    pub warnings: Vec<String>,
 }
 
 /// A triangle mesh plus polylines in f64 world coordinates.
