@@ -17,6 +17,9 @@ Inputs (prepared in --work, default target/compare_render/):
                       `voxkit voxelize -r RES --mode thin` (binvox, 0/1 voxels)
   headsq              the CT head data/volumes/headsq_quarter/headsq_quarter.nhdr
                       (64x64x93 int16; falls back to ../shared/data/volumes/...)
+  shell512, shell512i16, shell512u8
+                      512^3 blobs in a turbulent shell over low noise (scripts/make_volume.py),
+                      float32 / int16 / uint8; iso at 0.6 / 16000 / 128
   blobs512            512^3 float32, sum of 12 Gaussian blobs (seeded numpy: centres uniform in
                       the middle 80% of the box, sigma uniform in [12, 40] voxels, amplitude in
                       [0.5, 1]); detached NRRD (.nhdr + little-endian .raw, x fastest, spacing 1)
@@ -357,6 +360,19 @@ def main():
             say(f"the {n}³ Gaussian blobs: {work} (written once, then reused)")
             path = gaussian_blobs(work, n=n, seed=a.seed)
             cases.append(dict(name=name, label=f"12 Gaussian blobs {n}³ float32", path=path, binary=False, iso=a.blob_iso))
+        elif name.startswith("shell"):
+            # shell512 (float32), shell512i16, shell512u8: scripts/make_volume.py, written once.
+            spec = name[5:]
+            digits = "".join(ch for ch in spec.split("i")[0].split("u")[0] if ch.isdigit())
+            n = int(digits or 512)
+            dtype = "int16" if spec.endswith("i16") else "uint8" if spec.endswith("u8") else "float32"
+            path = work / f"shell{n}_{dtype}.nhdr"
+            if not path.exists():
+                say(f"the {n}³ {dtype} blobs in a turbulent shell: {path} (written once, then reused)")
+                subprocess.run([sys.executable, ROOT / "scripts/make_volume.py", path, "--n", str(n), "--dtype", dtype],
+                               check=True)
+            iso = {"float32": 0.6, "int16": 16000.0, "uint8": 128.0}[dtype]
+            cases.append(dict(name=name, label=f"blobs in a turbulent shell {n}³ {dtype}", path=path, binary=False, iso=iso))
         else:
             ap.error(f"unknown case {name}")
 

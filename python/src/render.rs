@@ -320,11 +320,9 @@ pub fn render_volume<'py>(
             let xf = GridTransform::new(vol.frame.origin, vol.frame.axes)?;
             return render_in(&vol.to_brick_grid(), vol.dims, &xf, SceneAxes::Y_UP, &v);
         }
-        let mut vopts = VolumeOptions::new(&vol, VolumeMode::Mip);
-        if let Some(w) = window {
-            vopts.window = w;
-            vopts.transfer = TransferFunction::ramp(w);
-        }
+        // The default window reads every sample: only when none is given.
+        let w = window.unwrap_or_else(|| VolumeOptions::default_window(&vol));
+        let mut vopts = VolumeOptions::with_window(VolumeMode::Mip, w);
         if let Some(tf) = &tf {
             vopts.transfer = TransferFunction::parse(tf)?;
         }
@@ -340,7 +338,7 @@ pub fn render_volume<'py>(
             }
             Some(m) => m,
         };
-        let scene = VolumeScene::new(&vol, v.opts.limit)?;
+        let scene = VolumeScene::from_volume(vol, v.opts.limit)?;
         let xf = *scene.transform();
         let d = scene.dims().map(|x| x as f64);
         let (lo, hi) = xf.world_bounds(DVec3::splat(-0.5), DVec3::from_array(d) - 0.5);

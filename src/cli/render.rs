@@ -208,7 +208,7 @@ struct Scene {
 /// A loaded input: a voxel grid or a scalar volume.
 enum Input {
     Grid(Box<Scene>),
-    Volume(ScalarVolume),
+    Volume(Box<ScalarVolume>),
 }
 
 impl Scene {
@@ -282,7 +282,7 @@ fn load(args: &RenderArgs, limit: MemoryLimit) -> Result<Input, CliError> {
                     mesh: None,
                 })));
             }
-            Ok(Input::Volume(vol))
+            Ok(Input::Volume(Box::new(vol)))
         }
     }
 }
@@ -413,7 +413,9 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     };
     let t = Instant::now();
     let mut info = serde_json::Map::new();
-    let renderer: Renderer = match &input {
+    // The volume is handed to its render structures (rearranged in place,
+    // not copied); a grid scene is kept for the camera and the measures.
+    let (renderer, grid): (Renderer, Option<Box<Scene>>) = match input {
         Input::Grid(scene) => {
             let mut occ = OccupancyGrid::new(&scene.grid, scene.dims, limit)?;
             if let Some(c) = &scene.colors {
@@ -425,11 +427,10 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
             info.insert("tiles".into(), scene.grid.tile_count().into());
             info.insert("stored_bricks".into(), occ.stored_bricks().into());
             info.insert("full_bricks".into(), occ.full_bricks().into());
-            Renderer::Grid(occ)
+            (Renderer::Grid(occ), Some(scene))
         }
         Input::Volume(vol) => {
-            let vs = VolumeScene::new(vol, limit)?;
-            let vopts = volume_options(&args, vol)?;
+            let vopts = volume_options(&args, &vol)?;
             info.insert("kind".into(), "volume".into());
             info.insert("dims".into(), serde_json::json!(vol.dims));
             info.insert("dtype".into(), vol.source_type().name().into());
@@ -441,13 +442,14 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
                 "window".into(),
                 serde_json::json!([vopts.window.0, vopts.window.1]),
             );
-            Renderer::Volume(Box::new(vs), vopts)
+            let vs = VolumeScene::from_volume(*vol, limit)?;
+            (Renderer::Volume(Box::new(vs), vopts), None)
         }
     };
     let prepare_ms = ms(t);
-    let (xf, axes) = match (&input, &renderer) {
-        (Input::Grid(scene), _) => (scene.xf, scene.axes),
-        (Input::Volume(_), Renderer::Volume(vs, _)) => (*vs.transform(), SceneAxes::Z_UP),
+    let (xf, axes) = match (&grid, &renderer) {
+        (Some(scene), _) => (scene.xf, scene.axes),
+        (None, Renderer::Volume(vs, _)) => (*vs.transform(), SceneAxes::Z_UP),
         _ => unreachable!("the renderer follows the input"),
     };
     let (lo, hi) = match &renderer {
@@ -548,7 +550,7 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
             Renderer::Volume(..) => crate::render::differing_values(&img, &reference),
         };
         obj.insert("differing_pixels".into(), differing.into());
-        if let Input::Grid(scene) = &input
+        if let Some(scene) = &grid
             && let Some(mesh) = &scene.mesh
         {
             let m = crate::render::measure::against_mesh(&img, mesh, &cam, scene.voxel_size)?;
@@ -616,11 +618,11 @@ pub(crate) fn volume_options(
     args: &RenderArgs,
     vol: &ScalarVolume,
 ) -> Result<VolumeOptions, CliError> {
-    let mut v = VolumeOptions::new(vol, VolumeMode::Mip);
-    if let Some(win) = args.window {
-        v.window = win;
-        v.transfer = TransferFunction::ramp(win);
-    }
+    // The default window reads every sample: only when none is given.
+    let window = args
+        .window
+        .unwrap_or_else(|| VolumeOptions::default_window(vol));
+    let mut v = VolumeOptions::with_window(VolumeMode::Mip, window);
     if let Some(tf) = &args.tf {
         v.transfer = TransferFunction::parse(tf)?;
     }

@@ -7,6 +7,7 @@
 //! i.e. on the integer point `(i, j, k)` of grid space.
 
 use glam::{DMat3, DVec3};
+use rayon::prelude::*;
 
 use super::{BrickGrid, DenseGrid, Dims, GridFrame, MemoryLimit, cell_count};
 use crate::error::{Result, VoxkitError};
@@ -487,10 +488,11 @@ impl ScalarVolume {
     /// over the sorted finite samples `s`. NaN and ±∞ are skipped; with no
     /// finite sample every entry is NaN.
     ///
-    /// Nothing is sorted or copied: each rank is found by radix selection
-    /// on the samples' order-preserving bit patterns, 16 bits per pass
-    /// (one pass for 8/16-bit types, two for 32-bit, four for `f64`),
-    /// with one 65 536-entry count table.
+    /// Nothing is sorted or copied: the ranks are found by radix selection
+    /// on the samples' order-preserving bit patterns, 16 bits per pass, all
+    /// ranks in the same passes (one pass for 8/16-bit types, two for
+    /// 32-bit, four for `f64`), each pass counting in parallel into
+    /// 65 536-entry tables (one per distinct prefix fixed so far).
     pub fn percentiles(&self, ps: &[f64]) -> Vec<f64> {
         with_samples!(&self.data, v => percentiles_of(v, ps))
     }
@@ -524,53 +526,109 @@ fn finite_range<T: Sample>(v: &[T]) -> Option<(f64, f64)> {
 }
 
 fn percentiles_of<T: Sample>(v: &[T], ps: &[f64]) -> Vec<f64> {
-    let n = v.iter().filter(|s| s.key().is_some()).count();
-    let mut counts = vec![0usize; 1 << 16];
-    ps.iter()
-        .map(|&p| {
-            if n == 0 || p.is_nan() {
-                return f64::NAN;
+    // The first digit's counts (shared by every rank: nothing is fixed yet)
+    // also count the finite samples.
+    let first = digit_counts(v, 0, &[0]);
+    let n: usize = first.iter().map(|&c| c as usize).sum();
+    // The ranks each percentile needs: its lower neighbour, and the upper
+    // one where it interpolates.
+    let mut plan = Vec::with_capacity(ps.len());
+    let mut ranks = Vec::new();
+    for &p in ps {
+        if n == 0 || p.is_nan() {
+            plan.push(None);
+            continue;
+        }
+        let r = p.clamp(0.0, 100.0) / 100.0 * (n - 1) as f64;
+        let lo = (r.floor() as usize).min(n - 1);
+        let frac = r - lo as f64;
+        let hi = (frac != 0.0 && lo + 1 < n).then_some(lo + 1);
+        ranks.push(lo);
+        ranks.extend(hi);
+        plan.push(Some((lo, hi, frac)));
+    }
+    ranks.sort_unstable();
+    ranks.dedup();
+    let values = select_ranks::<T>(v, &ranks, first);
+    let at = |r: usize| values[ranks.binary_search(&r).expect("planned rank")];
+    plan.into_iter()
+        .map(|q| match q {
+            None => f64::NAN,
+            Some((lo, None, _)) => at(lo),
+            Some((lo, Some(hi), frac)) => {
+                let (a, b) = (at(lo), at(hi));
+                a + frac * (b - a)
             }
-            let r = p.clamp(0.0, 100.0) / 100.0 * (n - 1) as f64;
-            let lo = (r.floor() as usize).min(n - 1);
-            let frac = r - lo as f64;
-            let a = select::<T>(v, lo, &mut counts);
-            if frac == 0.0 || lo + 1 >= n {
-                return a;
-            }
-            let b = select::<T>(v, lo + 1, &mut counts);
-            a + frac * (b - a)
         })
         .collect()
 }
 
-/// The finite sample of rank `rank` (0-based, ascending) by radix
-/// selection: fix the key's top bits 16 at a time, each pass counting the
-/// next digit among the samples that share the prefix fixed so far.
-fn select<T: Sample>(v: &[T], mut rank: usize, counts: &mut [usize]) -> f64 {
-    let mut prefix = 0u64;
-    let mut known = 0u32;
-    while known < T::KEY_BITS {
-        let digit_bits = (T::KEY_BITS - known).min(16);
-        let shift = T::KEY_BITS - known - digit_bits;
-        let counts = &mut counts[..1 << digit_bits];
-        counts.fill(0);
-        let mask = (1u64 << digit_bits) - 1;
-        for k in v.iter().filter_map(|s| s.key()) {
-            // `checked_shr` keeps a shift by 64 (nothing fixed yet) defined.
-            if k.checked_shr(shift + digit_bits).unwrap_or(0) == prefix {
-                counts[((k >> shift) & mask) as usize] += 1;
+/// Bits of the digit fixed after `known` bits of a `T` key.
+fn digit_bits<T: Sample>(known: u32) -> u32 {
+    (T::KEY_BITS - known).min(16)
+}
+
+/// Counts of the next digit (after `known` fixed bits) of the finite
+/// samples' keys, one table of `2^digit_bits` per prefix in `prefixes`
+/// (concatenated), in one parallel pass.
+fn digit_counts<T: Sample>(v: &[T], known: u32, prefixes: &[u64]) -> Vec<u64> {
+    let bits = digit_bits::<T>(known);
+    let shift = T::KEY_BITS - known - bits;
+    let width = 1usize << bits;
+    let mask = (width - 1) as u64;
+    let table = || vec![0u64; width * prefixes.len()];
+    v.par_chunks(1 << 16)
+        .fold(table, |mut counts, chunk| {
+            for k in chunk.iter().filter_map(|s| s.key()) {
+                // `checked_shr` keeps a shift by 64 (nothing fixed yet) defined.
+                let p = k.checked_shr(shift + bits).unwrap_or(0);
+                if let Some(j) = prefixes.iter().position(|&q| q == p) {
+                    counts[j * width + ((k >> shift) & mask) as usize] += 1;
+                }
             }
+            counts
+        })
+        .reduce(table, |mut a, b| {
+            a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+            a
+        })
+}
+
+/// The finite samples of the sorted, distinct `ranks` (0-based, ascending
+/// order of value) by radix selection: the keys' top bits are fixed 16 at
+/// a time, each pass counting the next digit among the samples that share
+/// a prefix fixed so far, for every rank at once. `first` holds the first
+/// digit's counts.
+fn select_ranks<T: Sample>(v: &[T], ranks: &[usize], first: Vec<u64>) -> Vec<f64> {
+    // Per rank: the prefix fixed so far and the rank among its samples.
+    let mut state: Vec<(u64, usize)> = ranks.iter().map(|&r| (0, r)).collect();
+    let mut known = 0;
+    let mut counts = first;
+    let mut prefixes = vec![0u64];
+    while known < T::KEY_BITS {
+        let bits = digit_bits::<T>(known);
+        let width = 1usize << bits;
+        for (prefix, rank) in &mut state {
+            let j = prefixes
+                .iter()
+                .position(|q| q == prefix)
+                .expect("counted prefix");
+            let table = &counts[j * width..(j + 1) * width];
+            let mut digit = 0;
+            while *rank as u64 >= table[digit] {
+                *rank -= table[digit] as usize;
+                digit += 1;
+            }
+            *prefix = (*prefix << bits) | digit as u64;
         }
-        let mut digit = 0;
-        while rank >= counts[digit] {
-            rank -= counts[digit];
-            digit += 1;
+        known += bits;
+        if known < T::KEY_BITS {
+            prefixes = state.iter().map(|s| s.0).collect();
+            prefixes.dedup();
+            counts = digit_counts(v, known, &prefixes);
         }
-        prefix = (prefix << digit_bits) | digit as u64;
-        known += digit_bits;
     }
-    T::from_key(prefix).to_f64()
+    state.iter().map(|s| T::from_key(s.0).to_f64()).collect()
 }
 
 fn occupancy<T: Sample>(v: &[T], dims: Dims) -> BrickGrid {

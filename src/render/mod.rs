@@ -26,6 +26,7 @@
 //! iso-surfaces, over the same per-pixel segments and ray kinds, with
 //! brick-level skipping that changes no pixel.
 
+pub mod bricks;
 mod cast;
 pub mod measure;
 mod occupancy;
@@ -37,9 +38,10 @@ use glam::{DMat3, DVec3, IVec3};
 use rayon::prelude::*;
 
 pub use crate::camera::{Camera, Projection, SceneAxes, ViewPreset};
+pub use bricks::{BrickRange, VolumeBricks};
 pub use occupancy::{MAX_RENDER_DIM, OccupancyGrid};
 pub use volume::{
-    BrickRange, EARLY_TERMINATION, RAMP_OPACITY, Sampling, TfPoint, TransferFunction, VolumeMode,
+    EARLY_TERMINATION, RAMP_OPACITY, Sampling, TfPoint, TransferFunction, VolumeMode,
     VolumeOptions, VolumeScene, differing_values, render_volume,
 };
 

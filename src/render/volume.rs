@@ -100,22 +100,20 @@ use rayon::prelude::*;
 
 use crate::camera::Camera;
 use crate::error::{Result, VoxkitError};
-use crate::grid::{DenseGrid, MemoryLimit, ScalarVolume};
+use crate::grid::{MemoryLimit, ScalarVolume};
 use crate::line::Segment;
 use crate::line::adaptive::{Core, RayMode};
 use crate::line::amanatides_woo::AwStepper;
 use crate::line::segment::Frame;
 use crate::line::tripod6::{JUMP_MAX_DELTA, TripodState};
 
+use super::bricks::{BRICK, BrickRange, VolumeBricks};
 use super::cast::CastCounters;
 use super::occupancy::chessboard_distance;
 use super::{
     GridRay, GridTransform, NormalMode, RayKind, RaySetup, RenderImage, RenderOptions, RenderStats,
     camera_check, check_image,
 };
-
-/// Brick edge in voxels.
-const BRICK: i32 = 8;
 
 /// Compositing stops once the accumulated opacity reaches this.
 pub const EARLY_TERMINATION: f32 = 0.99;
@@ -124,35 +122,21 @@ pub const EARLY_TERMINATION: f32 = 0.99;
 /// opacity of one reference length of the brightest material).
 pub const RAMP_OPACITY: f32 = 0.1;
 
-/// Value ranges of one 8³ brick: `min[r]`, `max[r]` over the brick grown by
-/// `r` voxels on every side (clipped to the volume), `r = 0, 1, 2`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BrickRange {
-    /// Smallest value over the brick grown by `r` voxels.
-    pub min: [f32; 3],
-    /// Largest value over the brick grown by `r` voxels.
-    pub max: [f32; 3],
-}
-
-/// A scalar volume prepared for [`render_volume`]: its values as `f32`
-/// (x fastest, NaN stored as `−∞`), its placement in the world, and the
-/// value ranges of its 8³ bricks and their aprons (see the
-/// [module docs](self)).
+/// A scalar volume prepared for [`render_volume`]: its samples in 8³
+/// bricks in their own type with per-brick value ranges and aprons
+/// ([`VolumeBricks`]), and its placement in the world.
 #[derive(Clone, Debug)]
 pub struct VolumeScene {
-    values: DenseGrid<f32>,
+    bricks: VolumeBricks,
     xf: GridTransform,
-    /// Bricks per axis.
-    bdims: [i32; 3],
-    bricks: Vec<BrickRange>,
     /// `∛|det axes|`: the reference length of the opacity correction.
     ref_len: f64,
 }
 
 impl VolumeScene {
-    /// Converts `volume` to `f32` and computes the brick ranges; `limit`
-    /// caps the values and the brick table together (checked before
-    /// allocating).
+    /// Prepares a copy of `volume` (see [`VolumeScene::from_volume`], which
+    /// takes the volume and needs no copy); `limit` caps the copy and the
+    /// render structures together, checked before allocating.
     ///
     /// ```
     /// use glam::{DVec3, IVec3};
@@ -169,41 +153,42 @@ impl VolumeScene {
     /// assert_eq!((r.min[1], r.max[1]), (7.0, 889.0));
     /// ```
     pub fn new(volume: &ScalarVolume, limit: MemoryLimit) -> Result<Self> {
-        let dims = volume.dims;
-        let bdims = dims.map(|d| d.div_ceil(BRICK as usize) as i32);
-        let nb: u128 = bdims.iter().map(|&b| b as u128).product();
-        let bytes = volume.len() as u128 * 4 + nb * std::mem::size_of::<BrickRange>() as u128;
-        limit.check("volume render structures", bytes, 1)?;
+        let copy = volume.len() as u128 * volume.source_type().bytes() as u128;
+        limit.check(
+            "copy of the volume for rendering",
+            copy + VolumeBricks::bytes_needed(volume.dims, volume.source_type()),
+            1,
+        )?;
+        Self::from_volume(volume.clone(), limit)
+    }
+
+    /// Prepares `volume` for rendering, rearranging its samples into bricks
+    /// in place (no second copy of the volume; see [`VolumeBricks`]);
+    /// `limit` caps the render structures, checked before anything grows.
+    pub fn from_volume(volume: ScalarVolume, limit: MemoryLimit) -> Result<Self> {
         let xf = GridTransform::new(volume.frame.origin, volume.frame.axes)?;
-        let mut values = volume.to_f32(limit)?;
-        values.as_mut_slice().par_iter_mut().for_each(|x| {
-            if x.is_nan() {
-                *x = f32::NEG_INFINITY;
-            }
-        });
-        let bricks = brick_ranges(&values, bdims);
+        let ref_len = volume.frame.axes.determinant().abs().cbrt();
         Ok(VolumeScene {
-            values,
+            bricks: VolumeBricks::from_volume(volume, limit)?,
             xf,
-            bdims,
-            bricks,
-            ref_len: volume.frame.axes.determinant().abs().cbrt(),
+            ref_len,
         })
     }
 
     /// Extents in voxels.
     pub fn dims(&self) -> [usize; 3] {
-        self.values.dims()
+        self.bricks.dims().map(|d| d as usize)
     }
 
-    /// The values (`f32`, x fastest, NaN stored as `−∞`).
-    pub fn values(&self) -> &DenseGrid<f32> {
-        &self.values
+    /// The samples in bricks, with their value ranges.
+    pub fn bricks(&self) -> &VolumeBricks {
+        &self.bricks
     }
 
-    /// The value of voxel `v`, `None` outside the volume.
+    /// The value of voxel `v` as the renderer reads it (`f32`, NaN as
+    /// `−∞`), `None` outside the volume.
     pub fn value(&self, v: IVec3) -> Option<f32> {
-        self.values.get(v).copied()
+        self.bricks.value(v)
     }
 
     /// Where the volume sits in the world.
@@ -220,87 +205,23 @@ impl VolumeScene {
     /// The value ranges of brick `b` (brick coordinates: voxel `>> 3`),
     /// `None` outside the volume.
     pub fn brick_range(&self, b: IVec3) -> Option<BrickRange> {
-        ((0..3).all(|k| b[k] >= 0 && b[k] < self.bdims[k]))
-            .then(|| self.bricks[self.brick_index(b)])
+        self.bricks.brick_range(b)
     }
 
-    /// Bytes held: the values and the brick table.
+    /// Bytes held: the bricks and their value ranges.
     pub fn heap_bytes(&self) -> usize {
-        self.values.len() * 4 + self.bricks.capacity() * std::mem::size_of::<BrickRange>()
+        self.bricks.heap_bytes()
     }
 
     #[inline(always)]
     fn brick_index(&self, b: IVec3) -> usize {
-        (b.x + self.bdims[0] * (b.y + self.bdims[1] * b.z)) as usize
+        self.bricks.brick_index(b)
     }
 
     #[inline(always)]
     fn index(&self, v: IVec3) -> usize {
-        self.values.linear_index_unchecked(v)
+        self.bricks.index(v)
     }
-}
-
-/// Per brick, the value ranges over the brick grown by 0, 1 and 2 voxels:
-/// each brick reads the rows of its 2-voxel apron once, each row giving
-/// the ranges of its three nested x-extents, which the rows' ring (how far
-/// outside the brick in y and z) assigns to the aprons.
-fn brick_ranges(values: &DenseGrid<f32>, bdims: [i32; 3]) -> Vec<BrickRange> {
-    let dims = values.dims().map(|d| d as i32);
-    let vals = values.as_slice();
-    let layer = (bdims[0] * bdims[1]) as usize;
-    let mut out = vec![
-        BrickRange {
-            min: [f32::INFINITY; 3],
-            max: [f32::NEG_INFINITY; 3],
-        };
-        layer * bdims[2] as usize
-    ];
-    out.par_chunks_mut(layer)
-        .enumerate()
-        .for_each(|(bz, slab)| {
-            for by in 0..bdims[1] {
-                for bx in 0..bdims[0] {
-                    let b = IVec3::new(bx, by, bz as i32);
-                    let lo = b * BRICK;
-                    let hi = (lo + (BRICK - 1)).min(IVec3::from_array(dims) - 1);
-                    let r = &mut slab[(bx + bdims[0] * by) as usize];
-                    for z in (lo.z - 2).max(0)..=(hi.z + 2).min(dims[2] - 1) {
-                        let rz = (lo.z - z).max(z - hi.z).max(0);
-                        for y in (lo.y - 2).max(0)..=(hi.y + 2).min(dims[1] - 1) {
-                            let ring = (lo.y - y).max(y - hi.y).max(rz) as usize;
-                            let row = (dims[0] * (y + dims[1] * z)) as usize;
-                            let rows = row_ranges(vals, row, lo.x, hi.x, dims[0]);
-                            for k in ring..3 {
-                                r.min[k] = r.min[k].min(rows.0[k]);
-                                r.max[k] = r.max[k].max(rows.1[k]);
-                            }
-                        }
-                    }
-                }
-            }
-        });
-    out
-}
-
-/// Min and max of a row's x-extents `[lo − r, hi + r]` (clipped), r = 0..2.
-#[inline]
-fn row_ranges(vals: &[f32], row: usize, lo: i32, hi: i32, nx: i32) -> ([f32; 3], [f32; 3]) {
-    let inner = &vals[row + lo as usize..=row + hi as usize];
-    let mut mn = inner.iter().copied().fold(f32::INFINITY, f32::min);
-    let mut mx = inner.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-    let mut out = ([mn; 3], [mx; 3]);
-    for r in 1..3 {
-        for x in [lo - r, hi + r] {
-            if x >= 0 && x < nx {
-                let s = vals[row + x as usize];
-                mn = mn.min(s);
-                mx = mx.max(s);
-            }
-        }
-        out.0[r as usize] = mn;
-        out.1[r as usize] = mx;
-    }
-    out
 }
 
 /// What a volume render shows (`--volume`).
@@ -517,7 +438,12 @@ impl VolumeOptions {
     /// the default ramp over it ([`TransferFunction::ramp`]) and nearest
     /// sampling.
     pub fn new(volume: &ScalarVolume, mode: VolumeMode) -> Self {
-        let window = Self::default_window(volume);
+        Self::with_window(mode, Self::default_window(volume))
+    }
+
+    /// `mode` with `window`, the default ramp over it and nearest
+    /// sampling: [`VolumeOptions::new`] without reading the samples.
+    pub fn with_window(mode: VolumeMode, window: (f32, f32)) -> Self {
         VolumeOptions {
             mode,
             window,
@@ -626,11 +552,11 @@ impl<'a> FrameCtx<'a> {
                 VolumeMode::Composite => vopts.transfer.max_opacity(b.min[r], b.max[r]) == 0.0,
             }
         };
-        let bricks = &scene.bricks;
+        let bricks = scene.bricks.ranges();
         let class = if opts.skip {
-            let skip = chessboard_distance(scene.bdims, |i| !quiet(&bricks[i], r));
+            let skip = chessboard_distance(scene.bricks.brick_dims(), |i| !quiet(&bricks[i], r));
             let flag = if opts.ray == RayKind::Adaptive {
-                chessboard_distance(scene.bdims, |i| !quiet(&bricks[i], r + 1))
+                chessboard_distance(scene.bricks.brick_dims(), |i| !quiet(&bricks[i], r + 1))
             } else {
                 vec![0; bricks.len()]
             };
@@ -648,7 +574,10 @@ impl<'a> FrameCtx<'a> {
                 .collect()
         };
         let pyramid = if opts.skip && vopts.mode == VolumeMode::Mip {
-            max_pyramid(scene.bdims, bricks.iter().map(|b| b.max[r]).collect())
+            max_pyramid(
+                scene.bricks.brick_dims(),
+                bricks.iter().map(|b| b.max[r]).collect(),
+            )
         } else {
             Vec::new()
         };
@@ -658,7 +587,7 @@ impl<'a> FrameCtx<'a> {
             opts,
             setup,
             class,
-            strides: scene.values.strides(),
+            strides: VolumeBricks::STRIDES,
             dims,
             r,
             pyramid,
@@ -767,53 +696,6 @@ impl RayGeom {
 
 /// `a·(1 − t) + b·t` for `t ∈ [0, 1]`, where a corner of weight 0 does not
 /// count even if it is `−∞`, and `+∞` against `−∞` gives `−∞`.
-#[inline(always)]
-fn lerp(a: f32, b: f32, t: f32) -> f32 {
-    let r = a * (1.0 - t) + b * t;
-    if r.is_nan() {
-        if t <= 0.0 {
-            a
-        } else if t >= 1.0 {
-            b
-        } else {
-            f32::NEG_INFINITY
-        }
-    } else {
-        r
-    }
-}
-
-/// Trilinear value at grid point `p` (inside voxel `v`'s cube, `v` at
-/// linear index `idx`) from the 8 voxel centres around it, clamped at the
-/// volume's border: the corner offsets come from `idx` and the strides.
-#[inline(always)]
-fn trilinear(vals: &[f32], ctx: &FrameCtx, v: IVec3, idx: usize, p: [f64; 3]) -> f32 {
-    let mut base = idx as isize;
-    let mut step = [0isize; 3];
-    let mut w = [0f32; 3];
-    for k in 0..3 {
-        let dk = p[k] - v[k] as f64;
-        if dk >= 0.0 {
-            if v[k] + 1 < ctx.dims[k] {
-                step[k] = ctx.strides[k];
-                w[k] = dk as f32;
-            }
-        } else if v[k] > 0 {
-            base -= ctx.strides[k];
-            step[k] = ctx.strides[k];
-            w[k] = (1.0 + dk) as f32;
-        }
-    }
-    let b = base as usize;
-    let at = |o: isize| vals[b.wrapping_add_signed(o)];
-    let [sx, sy, sz] = step;
-    let x00 = lerp(at(0), at(sx), w[0]);
-    let x10 = lerp(at(sy), at(sy + sx), w[0]);
-    let x01 = lerp(at(sz), at(sz + sx), w[0]);
-    let x11 = lerp(at(sz + sy), at(sz + sy + sx), w[0]);
-    lerp(lerp(x00, x10, w[1]), lerp(x01, x11, w[1]), w[2])
-}
-
 /// What a mode does with the visited voxels of one ray.
 trait Accum {
     /// Whether `visit` needs the stretch length.
@@ -923,23 +805,6 @@ const K6: u8 = 0;
 const K26: u8 = 1;
 const KAD: u8 = 2;
 
-/// Samples visited voxel `v` (linear index `idx`) given its stretch.
-#[inline(always)]
-fn sample<const TRI: bool>(
-    ctx: &FrameCtx,
-    vals: &[f32],
-    g: &RayGeom,
-    v: IVec3,
-    idx: usize,
-    st: (f64, f64),
-) -> f32 {
-    if TRI {
-        trilinear(vals, ctx, v, idx, g.sample_point(v, st))
-    } else {
-        vals[idx]
-    }
-}
-
 /// Reads the voxels `buf` (world voxel, linear index) that a ray stepped
 /// through, in order, into `acc`; `true` when `acc` ends the ray. Stretches
 /// are chords, or with `column = (major axis, previous column)` (the
@@ -953,8 +818,12 @@ fn consume<A: Accum, const TRI: bool>(
     acc: &mut A,
     n: &mut CastCounters,
 ) -> bool {
-    let vals = ctx.scene.values.as_slice();
-    for &(v, idx) in buf {
+    let bricks = &ctx.scene.bricks;
+    let mut nearest = [0f32; BUF];
+    if !TRI {
+        bricks.gather(buf, &mut nearest[..buf.len()]);
+    }
+    for (i, &(v, idx)) in buf.iter().enumerate() {
         n.visited += 1;
         let st = if !(TRI || A::LEN) {
             (0.0, 0.0)
@@ -969,7 +838,11 @@ fn consume<A: Accum, const TRI: bool>(
         } else {
             g.chord(v)
         };
-        let s = sample::<TRI>(ctx, vals, g, v, idx, st);
+        let s = if TRI {
+            bricks.trilinear(v, idx, g.sample_point(v, st))
+        } else {
+            nearest[i]
+        };
         if acc.visit(v, s, (st.1 - st.0).max(0.0)) {
             return true;
         }
@@ -1001,7 +874,7 @@ fn skip_box<A: Accum>(
     }
     if dynamic
         && let Some(m) = acc.threshold()
-        && ctx.scene.bricks[bi].max[ctx.r] <= m
+        && ctx.scene.bricks.ranges()[bi].max[ctx.r] <= m
     {
         let mut l = 0;
         while let Some((dims, maxima)) = ctx.pyramid.get(l) {
@@ -1062,11 +935,12 @@ fn walk_six<A: Accum, const TRI: bool>(
     };
     let jumps = f.d[0] <= JUMP_MAX_DELTA;
     let mut v = v0;
-    let mut idx = scene.index(v);
     let mut t: i64 = 0;
     let mut buf = [(IVec3::ZERO, 0usize); BUF];
     loop {
         let b = v >> 3;
+        // Stepping moves the index only inside a brick: set it per brick.
+        let mut idx = scene.index(v);
         let bi = scene.brick_index(b);
         if ctx.opts.skip
             && let Some((lo, hi)) = skip_box(ctx, acc, b, bi, ctx.class[bi].skip, true)
@@ -1081,7 +955,6 @@ fn walk_six<A: Accum, const TRI: bool>(
                 n.jumps += 1;
                 let c: [i64; 3] = std::array::from_fn(|j| c[j] + delta[j]);
                 v = f.voxel_world(c);
-                idx = scene.index(v);
                 t = c.iter().sum();
                 continue;
             }
@@ -1145,11 +1018,12 @@ fn walk_adaptive<A: Accum, const TRI: bool>(
     };
     let jumps = f.d[0] <= JUMP_MAX_DELTA;
     let mut v = v0;
-    let mut idx = scene.index(v);
     let mut t: i64 = 0;
     let mut buf = [(IVec3::ZERO, 0usize); BUF];
     loop {
         let b = v >> 3;
+        // Stepping moves the index only inside a brick: set it per brick.
+        let mut idx = scene.index(v);
         let bi = scene.brick_index(b);
         let class = ctx.class[bi];
         let flagged = class.flag == 0;
@@ -1184,7 +1058,6 @@ fn walk_adaptive<A: Accum, const TRI: bool>(
                         t = k.c.iter().sum();
                         v = f.voxel_world(k.c);
                     }
-                    idx = scene.index(v);
                     continue;
                 }
             }
@@ -1259,7 +1132,6 @@ fn walk_exact<A: Accum, const TRI: bool, const KIND: u8>(
     let off: [isize; 8] = steps.map(|s| s.x as isize * sx + s.y as isize * sy + s.z as isize * sz);
     let major = f.perm[0];
     let mut v = f.voxel_world(core.c);
-    let mut idx = scene.index(v);
     let mut t: i64 = core.c.iter().sum();
     // The 26-ray's previous column (a repeated column gets no stretch).
     let mut prev_col = i32::MIN;
@@ -1269,6 +1141,8 @@ fn walk_exact<A: Accum, const TRI: bool, const KIND: u8>(
             break;
         }
         let b = v >> 3;
+        // Stepping moves the index only inside a brick: set it per brick.
+        let mut idx = scene.index(v);
         let bi = scene.brick_index(b);
         let class = ctx.class[bi];
         let in26 = KIND == KAD && core.mode == RayMode::TwentySix;
@@ -1282,7 +1156,6 @@ fn walk_exact<A: Accum, const TRI: bool, const KIND: u8>(
                 if core.jump(h).is_some() {
                     n.jumps += 1;
                     v = f.voxel_world(core.c);
-                    idx = scene.index(v);
                     t = core.c.iter().sum();
                     prev_col = i32::MIN;
                     continue;
@@ -1343,10 +1216,10 @@ fn walk_aw<A: Accum, const TRI: bool>(
     let dir = s.direction();
     let off: [isize; 3] = std::array::from_fn(|k| dir[k] as isize * ctx.strides[k]);
     let mut v = s.voxel();
-    let mut idx = scene.index(v);
     let mut buf = [(IVec3::ZERO, 0usize); BUF];
     loop {
         let bk = v >> 3;
+        let mut idx = scene.index(v);
         let bi = scene.brick_index(bk);
         if ctx.opts.skip
             && let Some((lo, hi)) = skip_box(ctx, acc, bk, bi, ctx.class[bi].skip, true)
@@ -1356,7 +1229,6 @@ fn walk_aw<A: Accum, const TRI: bool>(
             }
             n.jumps += 1;
             v = s.voxel();
-            idx = scene.index(v);
             continue;
         }
         let mut cnt = 0;
@@ -1486,7 +1358,7 @@ fn shade_iso(ctx: &FrameCtx, ray: &GridRay, v: IVec3, iso: f32) -> [f32; 4] {
 /// at the border, 0 along an axis of extent 1).
 fn value_gradient(scene: &VolumeScene, v: IVec3) -> DVec3 {
     let dims = scene.dims().map(|d| d as i32);
-    let at = |p: IVec3| scene.values[scene.index(p)] as f64;
+    let at = |p: IVec3| scene.bricks.value_at(scene.index(p)) as f64;
     let mut g = DVec3::ZERO;
     for k in 0..3 {
         let (mut lo, mut hi) = (v, v);
@@ -1620,44 +1492,6 @@ mod tests {
     use super::*;
     use crate::grid::{VolumeData, VolumeFrame};
 
-    /// Brick ranges equal brute force over the grown boxes, at odd sizes.
-    #[test]
-    fn brick_ranges_match_brute_force() {
-        let dims = [19usize, 9, 17];
-        let n = dims.iter().product::<usize>();
-        let data: Vec<f32> = (0..n)
-            .map(|i| ((i * 7919 + 13) % 1009) as f32 - 500.0)
-            .collect();
-        let vol = ScalarVolume::new(dims, VolumeData::F32(data), VolumeFrame::default()).unwrap();
-        let s = VolumeScene::new(&vol, MemoryLimit::DEFAULT).unwrap();
-        for bz in 0..3 {
-            for by in 0..2 {
-                for bx in 0..3 {
-                    let b = IVec3::new(bx, by, bz);
-                    let got = s.brick_range(b).unwrap();
-                    for r in 0..3 {
-                        let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
-                        for z in 0..dims[2] as i32 {
-                            for y in 0..dims[1] as i32 {
-                                for x in 0..dims[0] as i32 {
-                                    let p = IVec3::new(x, y, z);
-                                    let lo = b * 8 - r;
-                                    let hi = b * 8 + 7 + r;
-                                    if p.cmpge(lo).all() && p.cmple(hi).all() {
-                                        let v = s.value(p).unwrap();
-                                        mn = mn.min(v);
-                                        mx = mx.max(v);
-                                    }
-                                }
-                            }
-                        }
-                        assert_eq!((got.min[r as usize], got.max[r as usize]), (mn, mx));
-                    }
-                }
-            }
-        }
-    }
-
     /// Each pyramid level holds the maxima over its blocks of bricks.
     #[test]
     fn max_pyramid_matches_brute_force() {
@@ -1704,17 +1538,12 @@ mod tests {
         }
         let vol = ScalarVolume::new(dims, VolumeData::F32(data), VolumeFrame::default()).unwrap();
         let scene = VolumeScene::new(&vol, MemoryLimit::DEFAULT).unwrap();
-        let cam = Camera::orthographic(DVec3::new(0.0, 0.0, 10.0), DVec3::ZERO, DVec3::Y, 4.0);
-        let opts = RenderOptions::default();
-        let vopts = VolumeOptions::new(&vol, VolumeMode::Mip);
-        let ctx = FrameCtx::new(&scene, &cam, &opts, &vopts);
-        let vals = scene.values.as_slice();
         for (v, p) in [
             (IVec3::new(2, 1, 1), [2.3, 0.6, 1.5]),
             (IVec3::new(0, 0, 0), [0.2, 0.4, -0.1]),
             (IVec3::new(4, 3, 2), [3.6, 3.2, 2.4]),
         ] {
-            let got = trilinear(vals, &ctx, v, scene.index(v), p);
+            let got = scene.bricks.trilinear(v, scene.index(v), p);
             let clamped = p.map(|x| x.max(0.0));
             let c = [
                 clamped[0].min(4.0),
@@ -1723,11 +1552,17 @@ mod tests {
             ];
             assert!((got - f(c[0], c[1], c[2])).abs() < 1e-5, "{v} {p:?}: {got}");
         }
-        assert_eq!(lerp(f32::NEG_INFINITY, 2.0, 0.0), f32::NEG_INFINITY);
-        assert_eq!(lerp(3.0, f32::NEG_INFINITY, 0.0), 3.0);
-        assert_eq!(lerp(3.0, f32::NEG_INFINITY, 0.5), f32::NEG_INFINITY);
         assert_eq!(
-            lerp(f32::INFINITY, f32::NEG_INFINITY, 0.5),
+            super::super::bricks::lerp(f32::NEG_INFINITY, 2.0, 0.0),
+            f32::NEG_INFINITY
+        );
+        assert_eq!(super::super::bricks::lerp(3.0, f32::NEG_INFINITY, 0.0), 3.0);
+        assert_eq!(
+            super::super::bricks::lerp(3.0, f32::NEG_INFINITY, 0.5),
+            f32::NEG_INFINITY
+        );
+        assert_eq!(
+            super::super::bricks::lerp(f32::INFINITY, f32::NEG_INFINITY, 0.5),
             f32::NEG_INFINITY
         );
     }

@@ -1,0 +1,831 @@
+//! A scalar volume's samples stored for rendering: 8³ bricks, brick-major,
+//! in the file's own sample type, with per-brick value ranges.
+//!
+//! # Layout
+//! Brick `b = v >> 3` holds its 512 samples contiguously at
+//! `512 · (bx + bx_n · (by + by_n · bz))`, x fastest inside the brick
+//! (`(x & 7) + 8 (y & 7) + 64 (z & 7)`): a ray crossing a brick touches one
+//! 512-sample block (one or a few cache lines per brick row) instead of 64
+//! rows spread over the volume, and neighbouring rays reuse it. Bricks at the
+//! volume's far faces are padded to 8³; padding is never sampled (rays are
+//! clipped inside the volume, trilinear samples clamp at its border).
+//!
+//! Samples keep their type (`int8`, `uint8`, `int16`, `uint16`, `int32`,
+//! `uint32`, `float32`): a `uint8` CT stays one byte a voxel. `float64`
+//! narrows to `float32` (round to nearest: a relative error of at most
+//! 2⁻²⁴, the precision every mode computes in anyway). A sample is read as
+//! `f32` ([`Stored::value`]): integers convert exactly up to 2²⁴ and round to
+//! nearest beyond; NaN is stored as `−∞` (it never holds a maximum, never
+//! reaches an iso value).
+//!
+//! # Building without a second copy
+//! [`VolumeBricks::from_volume`] takes the volume's sample vector and
+//! rearranges it *in place*, one layer of bricks (8 z-slices) at a time,
+//! from the last layer to the first: layer `k` of bricks starts at or after
+//! where slab `k` of the dense data starts (a brick layer is at least as
+//! long as a dense slab), so writing it only overwrites slabs that were
+//! already consumed. The only extra memory is the slab being rearranged and
+//! two slices of the next one (the aprons below): peak memory stays within a
+//! few slices of the volume itself, where a dense `f32` copy doubled it. The
+//! brick ranges are computed in the same pass, from the dense slices.
+//!
+//! # Brick ranges
+//! Per brick, the smallest and largest value over the brick grown by 0, 1
+//! and 2 voxels ([`BrickRange`], clipped to the volume): what the renderer's
+//! skipping and adaptive flags need for nearest and trilinear samples.
+
+use glam::IVec3;
+use rayon::prelude::*;
+
+use crate::error::{Result, VoxkitError};
+use crate::grid::{MemoryLimit, ScalarType, ScalarVolume, VolumeData};
+
+/// Brick edge in voxels.
+pub(crate) const BRICK: i32 = 8;
+/// Samples per brick.
+const BRICK_LEN: usize = 512;
+
+/// Value ranges of one 8³ brick: `min[r]`, `max[r]` over the brick grown by
+/// `r` voxels on every side (clipped to the volume), `r = 0, 1, 2`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BrickRange {
+    /// Smallest value over the brick grown by `r` voxels.
+    pub min: [f32; 3],
+    /// Largest value over the brick grown by `r` voxels.
+    pub max: [f32; 3],
+}
+
+impl BrickRange {
+    const EMPTY: BrickRange = BrickRange {
+        min: [f32::INFINITY; 3],
+        max: [f32::NEG_INFINITY; 3],
+    };
+}
+
+/// A sample type the bricks store, read as the renderer's `f32`.
+pub(crate) trait Stored: Copy + Default + Send + Sync + 'static {
+    /// The value the renderer computes with (see the [module docs](self)).
+    fn value(self) -> f32;
+}
+
+macro_rules! stored_int {
+    ($($t:ty),*) => {$(
+        impl Stored for $t {
+            #[inline(always)]
+            fn value(self) -> f32 {
+                // Round to nearest, as `f64 → f32` of the exact value does.
+                self as f32
+            }
+        }
+    )*};
+}
+stored_int!(i8, u8, i16, u16, i32, u32);
+
+impl Stored for f32 {
+    #[inline(always)]
+    fn value(self) -> f32 {
+        // NaN was replaced by −∞ when the bricks were built.
+        self
+    }
+}
+
+/// NaN as `−∞`, every other value unchanged.
+#[inline(always)]
+fn denan(x: f32) -> f32 {
+    if x.is_nan() { f32::NEG_INFINITY } else { x }
+}
+
+/// The typed sample vectors the bricks may hold.
+#[derive(Clone, Debug)]
+enum Store {
+    I8(Vec<i8>),
+    U8(Vec<u8>),
+    I16(Vec<i16>),
+    U16(Vec<u16>),
+    I32(Vec<i32>),
+    U32(Vec<u32>),
+    F32(Vec<f32>),
+}
+
+/// Runs `$body` with `$v` bound to the typed vector of a [`Store`].
+macro_rules! with_store {
+    ($store:expr, $v:ident => $body:expr) => {
+        match $store {
+            Store::I8($v) => $body,
+            Store::U8($v) => $body,
+            Store::I16($v) => $body,
+            Store::U16($v) => $body,
+            Store::I32($v) => $body,
+            Store::U32($v) => $body,
+            Store::F32($v) => $body,
+        }
+    };
+}
+
+/// A scalar volume's samples in 8³ bricks (see the [module docs](self)).
+///
+/// ```
+/// use glam::IVec3;
+/// use voxkit::grid::{MemoryLimit, ScalarVolume, VolumeData, VolumeFrame};
+/// use voxkit::render::VolumeBricks;
+/// let data: Vec<i16> = (0..1000).map(|i| i as i16 - 500).collect();
+/// let vol = ScalarVolume::new([10, 10, 10], VolumeData::I16(data), VolumeFrame::default()).unwrap();
+/// let b = VolumeBricks::from_volume(vol, MemoryLimit::DEFAULT).unwrap();
+/// assert_eq!(b.value(IVec3::new(1, 2, 3)), Some(321.0 - 500.0));
+/// assert_eq!(b.heap_bytes(), 8 * 512 * 2 + 8 * std::mem::size_of::<voxkit::render::BrickRange>());
+/// // Brick (1, 0, 0) holds x = 8..9, y, z = 0..7.
+/// let r = b.brick_range(IVec3::new(1, 0, 0)).unwrap();
+/// assert_eq!((r.min[0], r.max[0]), (8.0 - 500.0, 779.0 - 500.0));
+/// ```
+#[derive(Clone, Debug)]
+pub struct VolumeBricks {
+    dims: [i32; 3],
+    bdims: [i32; 3],
+    store: Store,
+    ranges: Vec<BrickRange>,
+    source: ScalarType,
+}
+
+impl VolumeBricks {
+    /// Rearranges `volume`'s samples into bricks in place (see the
+    /// [module docs](self)) and computes the brick ranges. `limit` caps the
+    /// bricks and their ranges together, checked before anything grows.
+    pub fn from_volume(volume: ScalarVolume, limit: MemoryLimit) -> Result<Self> {
+        let dims = volume.dims;
+        let bdims = dims.map(|d| d.div_ceil(BRICK as usize));
+        let nb: usize = bdims.iter().product();
+        limit.check(
+            "volume bricks",
+            Self::bytes_needed(dims, volume.data.scalar_type()),
+            1,
+        )?;
+        let source = volume.data.scalar_type();
+        let mut ranges = Vec::new();
+        ranges
+            .try_reserve_exact(nb)
+            .map_err(|_| too_big(nb * std::mem::size_of::<BrickRange>(), limit))?;
+        ranges.resize(nb, BrickRange::EMPTY);
+        let store = match volume.data {
+            VolumeData::I8(v) => Store::I8(in_place(v, dims, &mut ranges, |x| x, limit)?),
+            VolumeData::U8(v) => Store::U8(in_place(v, dims, &mut ranges, |x| x, limit)?),
+            VolumeData::I16(v) => Store::I16(in_place(v, dims, &mut ranges, |x| x, limit)?),
+            VolumeData::U16(v) => Store::U16(in_place(v, dims, &mut ranges, |x| x, limit)?),
+            VolumeData::I32(v) => Store::I32(in_place(v, dims, &mut ranges, |x| x, limit)?),
+            VolumeData::U32(v) => Store::U32(in_place(v, dims, &mut ranges, |x| x, limit)?),
+            VolumeData::F32(v) => Store::F32(in_place(v, dims, &mut ranges, denan, limit)?),
+            VolumeData::F64(v) => Store::F32(narrowed(&v, dims, &mut ranges, limit)?),
+        };
+        Ok(VolumeBricks {
+            dims: dims.map(|d| d as i32),
+            bdims: bdims.map(|d| d as i32),
+            store,
+            ranges,
+            source,
+        })
+    }
+
+    /// Bytes the bricks and their ranges take for a volume of `dims`
+    /// samples of type `ty` (padding included; `float64` held as `float32`).
+    pub fn bytes_needed(dims: [usize; 3], ty: ScalarType) -> u128 {
+        let nb: u128 = dims
+            .iter()
+            .map(|&d| d.div_ceil(BRICK as usize) as u128)
+            .product();
+        let elem = match ty {
+            ScalarType::F64 => 4,
+            t => t.bytes() as u128,
+        };
+        nb * (BRICK_LEN as u128 * elem + std::mem::size_of::<BrickRange>() as u128)
+    }
+
+    /// Extents in voxels.
+    pub fn dims(&self) -> [i32; 3] {
+        self.dims
+    }
+
+    /// Bricks per axis.
+    pub fn brick_dims(&self) -> [i32; 3] {
+        self.bdims
+    }
+
+    /// The sample type of the volume the bricks were built from (the bricks
+    /// hold it, but `float64`, which they hold as `float32`).
+    pub fn source_type(&self) -> ScalarType {
+        self.source
+    }
+
+    /// Bytes held: the bricks (padding included) and the brick ranges.
+    pub fn heap_bytes(&self) -> usize {
+        let samples = with_store!(&self.store, v => std::mem::size_of_val(&v[..]));
+        samples + self.ranges.len() * std::mem::size_of::<BrickRange>()
+    }
+
+    /// The largest stored sample (padding included), in one parallel pass
+    /// over every byte of the bricks: what a MIP that reads every voxel
+    /// once cannot beat. Benchmarks time it beside each frame as the
+    /// memory floor (see `benches/render.rs`).
+    pub fn max_pass(&self) -> f32 {
+        with_store!(&self.store, v => v
+            .par_chunks(1 << 16)
+            .map(|c| c.iter().fold(f32::NEG_INFINITY, |m, s| m.max(s.value())))
+            .reduce(|| f32::NEG_INFINITY, f32::max))
+    }
+
+    /// The value of voxel `v` as the renderer reads it, `None` outside the
+    /// volume.
+    pub fn value(&self, v: IVec3) -> Option<f32> {
+        self.contains(v).then(|| self.value_at(self.index(v)))
+    }
+
+    /// The value ranges of brick `b` (brick coordinates: voxel `>> 3`),
+    /// `None` outside the volume.
+    pub fn brick_range(&self, b: IVec3) -> Option<BrickRange> {
+        ((0..3).all(|k| b[k] >= 0 && b[k] < self.bdims[k]))
+            .then(|| self.ranges[self.brick_index(b)])
+    }
+
+    /// All brick ranges, brick index order (x fastest).
+    pub(crate) fn ranges(&self) -> &[BrickRange] {
+        &self.ranges
+    }
+
+    /// Whether voxel `v` lies in the volume.
+    #[inline(always)]
+    pub(crate) fn contains(&self, v: IVec3) -> bool {
+        v.cmpge(IVec3::ZERO).all() && v.cmplt(IVec3::from_array(self.dims)).all()
+    }
+
+    /// The index of brick `b` (inside the volume).
+    #[inline(always)]
+    pub(crate) fn brick_index(&self, b: IVec3) -> usize {
+        (b.x + self.bdims[0] * (b.y + self.bdims[1] * b.z)) as usize
+    }
+
+    /// The storage index of voxel `v` (inside the volume).
+    #[inline(always)]
+    pub(crate) fn index(&self, v: IVec3) -> usize {
+        let local = (v.x & 7) | (v.y & 7) << 3 | (v.z & 7) << 6;
+        (self.brick_index(v >> 3) << 9) | local as usize
+    }
+
+    /// Index steps of a move along x, y, z that stays inside one brick.
+    pub(crate) const STRIDES: [isize; 3] = [1, 8, 64];
+
+    /// The sample at storage index `i`.
+    #[inline(always)]
+    pub(crate) fn value_at(&self, i: usize) -> f32 {
+        with_store!(&self.store, v => v[i].value())
+    }
+
+    /// The samples at the storage indices `buf[..].1`, into `out` (as long
+    /// as `buf`): one type dispatch for a run of voxels.
+    #[inline(always)]
+    pub(crate) fn gather(&self, buf: &[(IVec3, usize)], out: &mut [f32]) {
+        with_store!(&self.store, v => {
+            for (o, &(_, i)) in out.iter_mut().zip(buf) {
+                *o = v[i].value();
+            }
+        })
+    }
+
+    /// Trilinear value at grid point `p` (inside voxel `v`'s cube, `v` at
+    /// storage index `idx`) from the 8 voxel centres around it, clamped at
+    /// the volume's border (a corner past the border gets weight 0 and is
+    /// the corner before it).
+    #[inline(always)]
+    pub(crate) fn trilinear(&self, v: IVec3, idx: usize, p: [f64; 3]) -> f32 {
+        // The cell's low corner `c` and, per axis, whether it has a second
+        // corner and the weight of that one.
+        let mut c = v;
+        let mut step = [0i32; 3];
+        let mut w = [0f32; 3];
+        for k in 0..3 {
+            let dk = p[k] - v[k] as f64;
+            if dk >= 0.0 {
+                if v[k] + 1 < self.dims[k] {
+                    step[k] = 1;
+                    w[k] = dk as f32;
+                }
+            } else if v[k] > 0 {
+                c[k] -= 1;
+                step[k] = 1;
+                w[k] = (1.0 + dk) as f32;
+            }
+        }
+        // Inside one brick the corners are fixed offsets from `c`'s index;
+        // across a brick face each corner finds its own brick.
+        let one_brick = (0..3).all(|k| (c[k] & 7) + step[k] <= 7);
+        let corners: [usize; 8] = if one_brick {
+            let base = if c == v { idx } else { self.index(c) };
+            let s = [0, 1, 2].map(|k| step[k] as usize * Self::STRIDES[k] as usize);
+            [
+                base,
+                base + s[0],
+                base + s[1],
+                base + s[1] + s[0],
+                base + s[2],
+                base + s[2] + s[0],
+                base + s[2] + s[1],
+                base + s[2] + s[1] + s[0],
+            ]
+        } else {
+            std::array::from_fn(|j| {
+                let o = IVec3::new(
+                    step[0] * (j as i32 & 1),
+                    step[1] * (j as i32 >> 1 & 1),
+                    step[2] * (j as i32 >> 2 & 1),
+                );
+                self.index(c + o)
+            })
+        };
+        let at = with_store!(&self.store, s => corners.map(|i| s[i].value()));
+        let x00 = lerp(at[0], at[1], w[0]);
+        let x10 = lerp(at[2], at[3], w[0]);
+        let x01 = lerp(at[4], at[5], w[0]);
+        let x11 = lerp(at[6], at[7], w[0]);
+        lerp(lerp(x00, x10, w[1]), lerp(x01, x11, w[1]), w[2])
+    }
+}
+
+/// Linear interpolation in which a corner of weight 0 does not count (a
+/// `−∞` there does not poison the value) and any other non-finite mix is
+/// `−∞`.
+#[inline(always)]
+pub(crate) fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    let r = a * (1.0 - t) + b * t;
+    if r.is_nan() {
+        if t <= 0.0 {
+            a
+        } else if t >= 1.0 {
+            b
+        } else {
+            f32::NEG_INFINITY
+        }
+    } else {
+        r
+    }
+}
+
+fn too_big(bytes: usize, limit: MemoryLimit) -> VoxkitError {
+    VoxkitError::Limits {
+        what: "volume bricks".into(),
+        needed: bytes as u128,
+        limit: limit.bytes,
+    }
+}
+
+/// Rearranges the dense samples `v` (x fastest, `dims`) into bricks in
+/// place, applying `fix` to every sample, and fills `ranges`.
+fn in_place<T: Stored>(
+    mut v: Vec<T>,
+    dims: [usize; 3],
+    ranges: &mut [BrickRange],
+    fix: impl Fn(T) -> T + Sync,
+    limit: MemoryLimit,
+) -> Result<Vec<T>> {
+    let [nx, ny, nz] = dims;
+    let bd = dims.map(|d| d.div_ceil(BRICK as usize));
+    let slice = nx * ny;
+    let layer = bd[0] * bd[1] * BRICK_LEN;
+    let total = layer * bd[2];
+    debug_assert!(total >= v.len() && v.len() == slice * nz);
+    let size = std::mem::size_of::<T>();
+    v.try_reserve_exact(total - v.len())
+        .map_err(|_| too_big(total * size, limit))?;
+    v.resize(total, T::default());
+    // The dense slab being rearranged, and the first two slices of the one
+    // after it (already overwritten in `v`), both with `fix` applied.
+    let mut cur: Vec<T> = Vec::new();
+    let mut next: Vec<T> = Vec::new();
+    for k in (0..bd[2]).rev() {
+        let z0 = k * BRICK as usize;
+        let z1 = (z0 + BRICK as usize).min(nz);
+        cur.clear();
+        cur.extend_from_slice(&v[z0 * slice..z1 * slice]);
+        cur.par_chunks_mut(1 << 16)
+            .for_each(|c| c.iter_mut().for_each(|x| *x = fix(*x)));
+        {
+            // Rows of the dense volume around this slab: slices before it
+            // are still dense in `v` (the layers written so far start at or
+            // after slab `k + 1`'s start), slices after it are in `next`.
+            let before = &v[z0.saturating_sub(2) * slice..z0 * slice];
+            let first_before = z0.saturating_sub(2);
+            let row = |z: usize, y: usize| {
+                let (buf, z): (&[T], usize) = if z < z0 {
+                    (before, z - first_before)
+                } else if z < z1 {
+                    (&cur[..], z - z0)
+                } else {
+                    (&next[..], z - z1)
+                };
+                &buf[(z * ny + y) * nx..][..nx]
+            };
+            let rlayer = &mut ranges[k * bd[0] * bd[1]..(k + 1) * bd[0] * bd[1]];
+            layer_ranges(rlayer, k, dims, bd, &row, &fix);
+        }
+        let out = &mut v[k * layer..(k + 1) * layer];
+        let cur_ref = &cur;
+        out.par_chunks_mut(BRICK_LEN)
+            .enumerate()
+            .for_each(|(i, brick)| {
+                let (bx, by) = (i % bd[0], i / bd[0]);
+                fill_brick(brick, bx, by, z1 - z0, [nx, ny], |z, y| {
+                    &cur_ref[(z * ny + y) * nx..][..nx]
+                });
+            });
+        next.clear();
+        next.extend_from_slice(&cur[..(z1 - z0).min(2) * slice]);
+    }
+    Ok(v)
+}
+
+/// Bricks of `f32` from dense `f64` samples (a new vector: the types differ
+/// in size), and the ranges.
+fn narrowed(
+    v: &[f64],
+    dims: [usize; 3],
+    ranges: &mut [BrickRange],
+    limit: MemoryLimit,
+) -> Result<Vec<f32>> {
+    let [nx, ny, nz] = dims;
+    let bd = dims.map(|d| d.div_ceil(BRICK as usize));
+    let slice = nx * ny;
+    let layer = bd[0] * bd[1] * BRICK_LEN;
+    let total = layer * bd[2];
+    let mut out: Vec<f32> = Vec::new();
+    out.try_reserve_exact(total)
+        .map_err(|_| too_big(total * 4, limit))?;
+    out.resize(total, 0.0);
+    let conv = |x: f64| denan(x as f32);
+    let mut slab: Vec<f32> = Vec::new();
+    for k in 0..bd[2] {
+        let z0 = k * BRICK as usize;
+        let lo = z0.saturating_sub(2);
+        let hi = (z0 + BRICK as usize + 2).min(nz);
+        slab.clear();
+        slab.extend(v[lo * slice..hi * slice].iter().map(|&x| conv(x)));
+        let slab_rows = &slab;
+        let row = |z: usize, y: usize| &slab_rows[((z - lo) * ny + y) * nx..][..nx];
+        let rlayer = &mut ranges[k * bd[0] * bd[1]..(k + 1) * bd[0] * bd[1]];
+        layer_ranges(rlayer, k, dims, bd, &row, &|x| x);
+        let z1 = (z0 + BRICK as usize).min(nz);
+        let slab_ref = &slab;
+        out[k * layer..(k + 1) * layer]
+            .par_chunks_mut(BRICK_LEN)
+            .enumerate()
+            .for_each(|(i, brick)| {
+                let (bx, by) = (i % bd[0], i / bd[0]);
+                fill_brick(brick, bx, by, z1 - z0, [nx, ny], |z, y| {
+                    &slab_ref[((z + z0 - lo) * ny + y) * nx..][..nx]
+                });
+            });
+    }
+    Ok(out)
+}
+
+/// Writes brick `(bx, by)` of a layer of `depth` slices (padding with the
+/// default value) from the layer's dense rows `row(z, y)` (z from the
+/// layer's first slice).
+#[inline]
+fn fill_brick<'a, T: Copy + Default + 'a>(
+    brick: &mut [T],
+    bx: usize,
+    by: usize,
+    depth: usize,
+    [nx, ny]: [usize; 2],
+    row: impl Fn(usize, usize) -> &'a [T],
+) {
+    let x0 = bx * BRICK as usize;
+    let w = (nx - x0).min(BRICK as usize);
+    for lz in 0..BRICK as usize {
+        for ly in 0..BRICK as usize {
+            let y = by * BRICK as usize + ly;
+            let dst = &mut brick[lz * 64 + ly * 8..][..8];
+            if lz < depth && y < ny {
+                let src = &row(lz, y)[x0..x0 + w];
+                dst[..w].copy_from_slice(src);
+                dst[w..].fill(T::default());
+            } else {
+                dst.fill(T::default());
+            }
+        }
+    }
+}
+
+/// The ranges of layer `k`'s bricks (`out`, x fastest) from the dense rows
+/// `row(z, y)` of slices `8k − 2 ..= 8k + 9` (clipped to the volume), each
+/// read through `fix`.
+fn layer_ranges<'a, T: Stored + 'a>(
+    out: &mut [BrickRange],
+    k: usize,
+    [nx, ny, nz]: [usize; 3],
+    bd: [usize; 3],
+    row: &(impl Fn(usize, usize) -> &'a [T] + Sync),
+    fix: &(impl Fn(T) -> T + Sync),
+) {
+    let dims = [nx as i32, ny as i32, nz as i32];
+    out.par_chunks_mut(bd[0])
+        .enumerate()
+        .for_each(|(by, brow)| {
+            for (bx, r) in brow.iter_mut().enumerate() {
+                let b = IVec3::new(bx as i32, by as i32, k as i32);
+                let lo = b * BRICK;
+                let hi = (lo + (BRICK - 1)).min(IVec3::from_array(dims) - 1);
+                for z in (lo.z - 2).max(0)..=(hi.z + 2).min(dims[2] - 1) {
+                    let rz = (lo.z - z).max(z - hi.z).max(0);
+                    for y in (lo.y - 2).max(0)..=(hi.y + 2).min(dims[1] - 1) {
+                        let ring = (lo.y - y).max(y - hi.y).max(rz) as usize;
+                        let rows = row_ranges(row(z as usize, y as usize), lo.x, hi.x, fix);
+                        for k in ring..3 {
+                            r.min[k] = r.min[k].min(rows.0[k]);
+                            r.max[k] = r.max[k].max(rows.1[k]);
+                        }
+                    }
+                }
+            }
+        });
+}
+
+/// Min and max of a row's x-extents `[lo − r, hi + r]` (clipped), r = 0..2.
+#[inline]
+fn row_ranges<T: Stored>(
+    row: &[T],
+    lo: i32,
+    hi: i32,
+    fix: &impl Fn(T) -> T,
+) -> ([f32; 3], [f32; 3]) {
+    let nx = row.len() as i32;
+    let inner = &row[lo as usize..=hi as usize];
+    let mut mn = f32::INFINITY;
+    let mut mx = f32::NEG_INFINITY;
+    for &s in inner {
+        let s = fix(s).value();
+        mn = mn.min(s);
+        mx = mx.max(s);
+    }
+    let mut out = ([mn; 3], [mx; 3]);
+    for r in 1..3 {
+        for x in [lo - r, hi + r] {
+            if x >= 0 && x < nx {
+                let s = fix(row[x as usize]).value();
+                mn = mn.min(s);
+                mx = mx.max(s);
+            }
+        }
+        out.0[r as usize] = mn;
+        out.1[r as usize] = mx;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::VolumeFrame;
+
+    fn bricks(dims: [usize; 3], data: VolumeData) -> VolumeBricks {
+        let vol = ScalarVolume::new(dims, data, VolumeFrame::default()).unwrap();
+        VolumeBricks::from_volume(vol, MemoryLimit::DEFAULT).unwrap()
+    }
+
+    /// Every sample type reads back the file's values exactly (NaN as
+    /// −∞, f64 rounded to f32), at sizes that are and are not multiples of
+    /// the brick, through `value`, `gather` and `value_at`.
+    #[test]
+    fn every_type_reads_back_its_values() {
+        for dims in [
+            [8usize, 8, 8],
+            [19, 9, 17],
+            [1, 1, 1],
+            [3, 20, 2],
+            [16, 16, 9],
+        ] {
+            let n: usize = dims.iter().product();
+            let raw: Vec<i64> = (0..n as i64)
+                .map(|i| (i * 7919 + 13) % 1009 - 500)
+                .collect();
+            let cases: Vec<(VolumeData, Box<dyn Fn(usize) -> f32>)> = vec![
+                (
+                    VolumeData::I8(raw.iter().map(|&x| (x % 128) as i8).collect()),
+                    {
+                        let r = raw.clone();
+                        Box::new(move |i| (r[i] % 128) as f32)
+                    },
+                ),
+                (
+                    VolumeData::U8(raw.iter().map(|&x| (x + 500) as u8).collect()),
+                    {
+                        let r = raw.clone();
+                        Box::new(move |i| ((r[i] + 500) as u8) as f32)
+                    },
+                ),
+                (
+                    VolumeData::I16(raw.iter().map(|&x| (x * 60) as i16).collect()),
+                    {
+                        let r = raw.clone();
+                        Box::new(move |i| (r[i] * 60) as f32)
+                    },
+                ),
+                (
+                    VolumeData::U16(raw.iter().map(|&x| (x + 500) as u16 * 60).collect()),
+                    {
+                        let r = raw.clone();
+                        Box::new(move |i| ((r[i] + 500) * 60) as f32)
+                    },
+                ),
+                (
+                    VolumeData::I32(raw.iter().map(|&x| x as i32 * 4_000_037).collect()),
+                    {
+                        let r = raw.clone();
+                        Box::new(move |i| ((r[i] * 4_000_037) as f64) as f32)
+                    },
+                ),
+                (
+                    VolumeData::U32(raw.iter().map(|&x| (x + 500) as u32 * 4_000_037).collect()),
+                    {
+                        let r = raw.clone();
+                        Box::new(move |i| (((r[i] + 500) * 4_000_037) as f64) as f32)
+                    },
+                ),
+                (
+                    VolumeData::F32(
+                        raw.iter()
+                            .map(|&x| {
+                                if x % 97 == 0 {
+                                    f32::NAN
+                                } else {
+                                    x as f32 / 3.0
+                                }
+                            })
+                            .collect(),
+                    ),
+                    {
+                        let r = raw.clone();
+                        Box::new(move |i| {
+                            if r[i] % 97 == 0 {
+                                f32::NEG_INFINITY
+                            } else {
+                                r[i] as f32 / 3.0
+                            }
+                        })
+                    },
+                ),
+                (
+                    VolumeData::F64(
+                        raw.iter()
+                            .map(|&x| {
+                                if x % 89 == 0 {
+                                    f64::NAN
+                                } else {
+                                    x as f64 / 7.0
+                                }
+                            })
+                            .collect(),
+                    ),
+                    {
+                        let r = raw.clone();
+                        Box::new(move |i| {
+                            if r[i] % 89 == 0 {
+                                f32::NEG_INFINITY
+                            } else {
+                                (r[i] as f64 / 7.0) as f32
+                            }
+                        })
+                    },
+                ),
+            ];
+            for (data, want) in cases {
+                let t = data.scalar_type();
+                let b = bricks(dims, data);
+                assert_eq!(b.source_type(), t);
+                let mut buf = Vec::new();
+                for z in 0..dims[2] {
+                    for y in 0..dims[1] {
+                        for x in 0..dims[0] {
+                            let v = IVec3::new(x as i32, y as i32, z as i32);
+                            let i = x + dims[0] * (y + dims[1] * z);
+                            assert_eq!(b.value(v), Some(want(i)), "{t} {dims:?} {v}");
+                            buf.push((v, b.index(v)));
+                        }
+                    }
+                }
+                let mut out = vec![0.0; buf.len()];
+                b.gather(&buf, &mut out);
+                for (k, &(v, _)) in buf.iter().enumerate() {
+                    assert_eq!(out[k], b.value(v).unwrap());
+                }
+                assert_eq!(b.value(IVec3::new(-1, 0, 0)), None);
+                assert_eq!(b.value(IVec3::from_array(dims.map(|d| d as i32))), None);
+            }
+        }
+    }
+
+    /// Brick ranges equal brute force over the grown boxes, at odd sizes
+    /// and with −∞ (NaN) samples.
+    #[test]
+    fn brick_ranges_match_brute_force() {
+        for dims in [[19usize, 9, 17], [8, 8, 8], [5, 30, 26]] {
+            let n = dims.iter().product::<usize>();
+            let data: Vec<f32> = (0..n)
+                .map(|i| {
+                    if i % 211 == 5 {
+                        f32::NAN
+                    } else {
+                        ((i * 7919 + 13) % 1009) as f32 - 500.0
+                    }
+                })
+                .collect();
+            let s = bricks(dims, VolumeData::F32(data));
+            let bd = s.brick_dims();
+            for bz in 0..bd[2] {
+                for by in 0..bd[1] {
+                    for bx in 0..bd[0] {
+                        let b = IVec3::new(bx, by, bz);
+                        let got = s.brick_range(b).unwrap();
+                        for r in 0..3 {
+                            let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
+                            let lo = b * 8 - r;
+                            let hi = b * 8 + 7 + r;
+                            for z in lo.z..=hi.z {
+                                for y in lo.y..=hi.y {
+                                    for x in lo.x..=hi.x {
+                                        if let Some(v) = s.value(IVec3::new(x, y, z)) {
+                                            mn = mn.min(v);
+                                            mx = mx.max(v);
+                                        }
+                                    }
+                                }
+                            }
+                            assert_eq!(
+                                (got.min[r as usize], got.max[r as usize]),
+                                (mn, mx),
+                                "{dims:?} brick {b} r {r}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Trilinear samples equal the dense formula at every corner
+    /// configuration, across brick faces and at the volume's border.
+    #[test]
+    fn trilinear_across_bricks_equals_dense() {
+        let dims = [19usize, 10, 17];
+        let n: usize = dims.iter().product();
+        let dense: Vec<f32> = (0..n).map(|i| ((i * 31 + 7) % 113) as f32 * 0.5).collect();
+        let b = bricks(dims, VolumeData::F32(dense.clone()));
+        let at = |v: IVec3| {
+            let c = v.clamp(IVec3::ZERO, IVec3::from_array(dims.map(|d| d as i32)) - 1);
+            dense[c.x as usize + dims[0] * (c.y as usize + dims[1] * c.z as usize)]
+        };
+        for z in 0..dims[2] as i32 {
+            for y in 0..dims[1] as i32 {
+                for x in 0..dims[0] as i32 {
+                    let v = IVec3::new(x, y, z);
+                    for (dx, dy, dz) in [(0.3, -0.2, 0.45), (-0.5, 0.5, -0.1), (0.0, 0.0, 0.0)] {
+                        let p = [x as f64 + dx, y as f64 + dy, z as f64 + dz];
+                        let got = b.trilinear(v, b.index(v), p);
+                        // The clamped trilinear formula on the dense array.
+                        let f = p.map(|c| c.floor() as i32);
+                        let w = [0, 1, 2].map(|k| (p[k] - f[k] as f64) as f32);
+                        let c = IVec3::from_array(f);
+                        let g = |o: IVec3| at(c + o);
+                        let x00 = lerp(g(IVec3::new(0, 0, 0)), g(IVec3::new(1, 0, 0)), w[0]);
+                        let x10 = lerp(g(IVec3::new(0, 1, 0)), g(IVec3::new(1, 1, 0)), w[0]);
+                        let x01 = lerp(g(IVec3::new(0, 0, 1)), g(IVec3::new(1, 0, 1)), w[0]);
+                        let x11 = lerp(g(IVec3::new(0, 1, 1)), g(IVec3::new(1, 1, 1)), w[0]);
+                        let want = lerp(lerp(x00, x10, w[1]), lerp(x01, x11, w[1]), w[2]);
+                        assert!(
+                            (got - want).abs() <= 1e-4 * want.abs().max(1.0),
+                            "{v} {p:?}: {got} {want}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// The bricks take no more than the limit allows, checked first.
+    #[test]
+    fn the_limit_is_checked_first() {
+        let vol = ScalarVolume::new(
+            [9, 9, 9],
+            VolumeData::U8(vec![1; 729]),
+            VolumeFrame::default(),
+        )
+        .unwrap();
+        let need = 8 * 512 + 8 * std::mem::size_of::<BrickRange>();
+        assert!(matches!(
+            VolumeBricks::from_volume(vol.clone(), MemoryLimit::new(need as u64 - 1)),
+            Err(VoxkitError::Limits { .. })
+        ));
+        assert_eq!(
+            VolumeBricks::from_volume(vol, MemoryLimit::new(need as u64))
+                .unwrap()
+                .heap_bytes(),
+            need
+        );
+    }
+}
