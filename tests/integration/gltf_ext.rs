@@ -13,6 +13,8 @@ use glam::DVec3;
 use voxkit::VoxkitError;
 use voxkit::mesh::{Mesh, gltf};
 
+use crate::mesh_formats::glb;
+
 fn corpus(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/data/formats")
@@ -115,29 +117,6 @@ fn corpus_matches_its_answers() {
     }
 }
 
-/// A GLB around `json` with `bin` as its binary chunk.
-fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
-    let mut j = json.as_bytes().to_vec();
-    while !j.len().is_multiple_of(4) {
-        j.push(b' ');
-    }
-    let mut b = bin.to_vec();
-    while !b.len().is_multiple_of(4) {
-        b.push(0);
-    }
-    let total = 12 + 8 + j.len() + 8 + b.len();
-    let mut out = b"glTF".to_vec();
-    out.extend(2u32.to_le_bytes());
-    out.extend((total as u32).to_le_bytes());
-    out.extend((j.len() as u32).to_le_bytes());
-    out.extend(b"JSON");
-    out.extend(j);
-    out.extend((b.len() as u32).to_le_bytes());
-    out.extend(b"BIN\0");
-    out.extend(b);
-    out
-}
-
 /// Every quantized component type read from a GLB, with a stride, every
 /// representable value of the byte types and a sweep of the short ones:
 /// each vertex equals the spec's dequantization (checked against the
@@ -234,7 +213,7 @@ fn sparse_quantized_positions() {
                 bin.extend(i.to_le_bytes());
             }
         }
-        while bin.len() % 4 != 0 {
+        while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
         let val_off = bin.len();

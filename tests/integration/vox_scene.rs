@@ -316,6 +316,7 @@ fn random_scene_graphs_match_dot_vox() {
         let mut scenes: Vec<Option<dot_vox::SceneNode>> = vec![None, None];
         let mut skipped = false;
         // Builds a subtree under a fresh nTRN; returns the nTRN's id.
+        #[allow(clippy::too_many_arguments)]
         fn build(
             rng: &mut ChaCha8Rng,
             scenes: &mut Vec<Option<dot_vox::SceneNode>>,
