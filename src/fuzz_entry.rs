@@ -160,10 +160,22 @@ pub fn binvox(data: &[u8]) -> Result<()> {
 /// MagicaVoxel `.vox` bytes, with colours.
 pub fn vox(data: &[u8]) -> Result<()> {
     use crate::io::vox;
-    let (grid, frame, _colors) = vox::read_colored(data, LIMIT)?;
+    let s = vox::read_colored(data, LIMIT)?;
+    // Every placed voxel (instances, rotations, groups) is in the grid, and
+    // the grid has no voxel that no placement put there.
+    assert!(
+        s.colors.voxels.iter().all(|&(v, _)| s.grid.contains(v)),
+        "a placed voxel is missing from the grid"
+    );
+    let distinct: std::collections::HashSet<_> = s.colors.voxels.iter().map(|p| p.0).collect();
+    assert_eq!(
+        distinct.len() as u64,
+        s.grid.count(),
+        "grid and placed voxels differ"
+    );
     round_trip(
-        &grid,
-        &frame,
+        &s.grid,
+        &s.frame,
         |w, g, f| vox::write(w, g, f),
         |b| vox::read(b, LIMIT),
     );

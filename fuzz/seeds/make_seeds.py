@@ -112,6 +112,16 @@ def vox():
     layr = chunk(b"LAYR", struct.pack("<i", 0) + vdict({}) + struct.pack("<i", -1))
     body = size + xyzi + size + xyzi + ntrn0 + ngrp + ntrn2 + nshp3 + ntrn4 + nshp5 + layr + rgba
     put("vox", "scene", b"VOX " + struct.pack("<i", 150) + chunk(b"MAIN", b"", body))
+    # The conformance corpus: instancing, every rotation, nested groups,
+    # hidden layers and nodes, keyframes, the 0.98 animation layout.
+    corpus("vox", "vox")
+
+
+def corpus(target, sub):
+    """Seeds from tests/data/formats/<sub>/ (make_vox_gltf.py's files)."""
+    d = os.path.join(ROOT, "tests/data/formats", sub)
+    for name in sorted(os.listdir(d)):
+        put(target, "formats-" + name, open(os.path.join(d, name), "rb").read())
 
 
 SEP = b"\n@@DATA@@\n"  # voxkit::fuzz_entry::DATA_SEPARATOR
@@ -213,6 +223,9 @@ def gltf():
     j += b" " * (-len(j) % 4)
     body = struct.pack("<II", len(j), 0x4E4F534A) + j + struct.pack("<II", len(buf), 0x004E4942) + buf
     put("gltf", "tri.glb", b"glTF" + struct.pack("<II", 2, 12 + len(body)) + body)
+    # Sparse accessors, quantized positions, meshopt fallbacks, Draco and
+    # unknown required extensions, empty scenes, files without scenes.
+    corpus("gltf", "gltf")
 
 
 def ply():

@@ -14,7 +14,7 @@ use pyo3::types::PyDict;
 use rayon::prelude::*;
 use voxkit::grid::brick::BrickMask;
 use voxkit::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
-use voxkit::io::{read_voxels, write_voxels};
+use voxkit::io::{read_voxels_warned, write_voxels};
 use voxkit::mesh::FIT_SLACK;
 use voxkit::mesh::Mesh;
 use voxkit::metric::Connectivity;
@@ -442,6 +442,7 @@ impl Grid {
 #[pyfunction]
 pub fn load_mesh<'py>(py: Python<'py>, path: PathBuf) -> PyResult<MeshArrays<'py>> {
     let mesh = run(py, || Mesh::load(&path))?;
+    warn_each(py, &path, &mesh.summary.warnings)?;
     let v: Vec<f64> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
     let f: Vec<i64> = mesh
         .triangles
@@ -511,8 +512,22 @@ pub fn voxelize(
 #[pyfunction]
 #[pyo3(signature = (path, max_memory_mib = 4096))]
 pub fn load_grid(py: Python<'_>, path: PathBuf, max_memory_mib: u64) -> PyResult<Grid> {
-    let (grid, frame) = run(py, || read_voxels(&path, limit_of(max_memory_mib)))?;
+    let (grid, frame, warnings) = run(py, || read_voxels_warned(&path, limit_of(max_memory_mib)))?;
+    warn_each(py, &path, &warnings)?;
     Ok(Grid::new(grid, frame, None, false))
+}
+
+/// Issues each of a reader's warnings (what it skipped while still reading
+/// the file: hidden .vox layers, glTF extensions ignored, ...) as a Python
+/// `UserWarning` naming the file, as the command line prints them.
+fn warn_each(py: Python<'_>, path: &std::path::Path, warnings: &[String]) -> PyResult<()> {
+    let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+    for w in warnings {
+        let msg = std::ffi::CString::new(format!("{}: {w}", path.display()))
+            .unwrap_or_else(|_| c"(a warning with a NUL byte)".to_owned());
+        PyErr::warn(py, &category, &msg, 1)?;
+    }
+    Ok(())
 }
 
 /// The library's error measures of any tool's `(K, 3)` voxel indices on

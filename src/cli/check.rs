@@ -5,7 +5,8 @@
 //! symmetry with the other commands):
 //! `{"grid", "dims", "voxels", "tiles", "tunnels": N, "close": K, "enclosed": e,
 //! "tunnel": bool, "first_inside_reached": [x,y,z] | null, "outside_empty",
-//! "inside_empty"}`. Exit code 1 if a tunnel exists, 0 if not, 2 for bad
+//! "inside_empty", "warnings": [...]}` (what the reader skipped, e.g. a .vox
+//! file's hidden layers; each also printed to stderr as `warning: …`). Exit code 1 if a tunnel exists, 0 if not, 2 for bad
 //! input.
 //!
 //! # What counts as inside
@@ -33,7 +34,7 @@ use std::path::PathBuf;
 
 use super::CliError;
 use crate::grid::{BitGrid, MemoryLimit, Voxel};
-use crate::io::read_voxels;
+use crate::io::read_voxels_warned;
 use crate::metric::Connectivity;
 use crate::topology::tunnels::closed_surface_tunnels;
 
@@ -129,7 +130,8 @@ pub fn run(args: CheckArgs, out: &mut dyn Write) -> Result<(), CliError> {
     } else {
         Connectivity::TwentySix
     };
-    let (grid, frame) = read_voxels(&args.grid, limit)?;
+    let (grid, frame, warnings) = read_voxels_warned(&args.grid, limit)?;
+    super::print_grid_warnings(&args.grid, &warnings);
     let occ = grid.to_bit_grid(frame.dims, limit)?;
     let mut closed = occ.clone();
     for _ in 0..args.close {
@@ -151,6 +153,7 @@ pub fn run(args: CheckArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "first_inside_reached": verdict.first_inside_reached.map(|v| v.to_array()),
         "outside_empty": verdict.outside_empty,
         "inside_empty": verdict.inside_empty,
+        "warnings": warnings,
     });
     writeln!(out, "{j}")?;
     if verdict.tunnel {

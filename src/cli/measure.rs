@@ -13,7 +13,8 @@
 //! per axis (origin = world min corner of voxel 0).
 //!
 //! Prints one line of JSON: `mesh`, `voxels_file`, `voxels`, `dims`,
-//! `origin`, `voxel_size` (of the widened frame), `measure_ms`,
+//! `origin`, `voxel_size` (of the widened frame), `warnings` (what the
+//! voxel reader skipped; each also printed to stderr), `measure_ms`,
 //! `peak_rss_mib` and the measures of `voxkit voxelize --measure`.
 
 use std::io::Write;
@@ -27,7 +28,7 @@ use ndarray_npy::ReadNpyExt;
 use super::CliError;
 use super::voxelize::{insert_measures, peak_rss_mib};
 use crate::grid::MemoryLimit;
-use crate::io::read_voxels;
+use crate::io::read_voxels_warned;
 use crate::mesh::Mesh;
 use crate::voxelize::measure::measure_external;
 
@@ -79,6 +80,7 @@ pub fn run(args: MeasureArgs, out: &mut dyn Write) -> Result<(), CliError> {
         None
     };
     let origin = args.origin.as_ref().map(|o| DVec3::new(o[0], o[1], o[2]));
+    let mut warnings = Vec::new();
     let (voxels, origin, h) = match list {
         Some(v) => {
             let (Some(o), Some(h)) = (origin, args.voxel_size) else {
@@ -90,7 +92,9 @@ pub fn run(args: MeasureArgs, out: &mut dyn Write) -> Result<(), CliError> {
             (v, o, h)
         }
         None => {
-            let (grid, frame) = read_voxels(path, limit)?;
+            let (grid, frame, w) = read_voxels_warned(path, limit)?;
+            super::print_grid_warnings(path, &w);
+            warnings = w;
             let v = grid.iter().map(|p| p.to_array().map(i64::from)).collect();
             (
                 v,
@@ -109,6 +113,7 @@ pub fn run(args: MeasureArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "dims": frame.dims,
         "origin": frame.origin.to_array(),
         "voxel_size": frame.voxel_size,
+        "warnings": warnings,
     });
     let obj = j.as_object_mut().expect("json! of an object literal");
     insert_measures(obj, &m, measure_ms);

@@ -19,6 +19,14 @@ mod report;
 mod triangle;
 mod voxelize;
 
+/// Prints each of a reader's warnings about `path` to stderr as one line,
+/// `warning: PATH: …`, and returns them for a `--json` `warnings` list.
+pub(crate) fn print_grid_warnings(path: &std::path::Path, warnings: &[String]) {
+    for w in warnings {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+}
+
 pub use check::{CheckArgs, dilate26, enclosed_empty};
 pub use demo::DemoArgs;
 pub use line::LineArgs;

@@ -2,6 +2,8 @@
 //! voxel file, a mesh (voxelized first) or a scalar volume.
 //!
 //! `--json` prints one line with `input`, `kind` (`grid` / `volume`),
+//! `warnings` (what a voxel reader skipped, e.g. a .vox file's hidden
+//! layers; each also printed to stderr as `warning: …`),
 //! `dims`, `voxels`, for grids `tiles` (the grid's tiles), `stored_bricks`
 //! (bricks with flags of their own) and `full_bricks` (bricks sharing the
 //! full slot), `ray`, `skip`, `size`, `rays`, `hits`,
@@ -225,7 +227,11 @@ impl Scene {
     }
 }
 
-fn load(args: &RenderArgs, limit: MemoryLimit) -> Result<Input, CliError> {
+fn load(
+    args: &RenderArgs,
+    limit: MemoryLimit,
+    warnings: &mut Vec<String>,
+) -> Result<Input, CliError> {
     let path = &args.input;
     let named = |e: crate::VoxkitError| CliError::bad_input(format!("{}: {e}", path.display()));
     if is_mesh(path) {
@@ -252,14 +258,17 @@ fn load(args: &RenderArgs, limit: MemoryLimit) -> Result<Input, CliError> {
             )?;
             let bytes = std::fs::read(path)
                 .map_err(|e| CliError::bad_input(format!("{}: {e}", path.display())))?;
-            let (grid, frame, colors) =
-                crate::io::vox::read_colored(&bytes, limit).map_err(named)?;
-            let mut scene = Scene::from_frame(grid, &frame, SceneAxes::Z_UP)?;
-            scene.colors = Some(colors);
+            let vox = crate::io::vox::read_colored(&bytes, limit).map_err(named)?;
+            super::print_grid_warnings(path, &vox.warnings);
+            warnings.extend(vox.warnings);
+            let mut scene = Scene::from_frame(vox.grid, &vox.frame, SceneAxes::Z_UP)?;
+            scene.colors = Some(vox.colors);
             Ok(Input::Grid(Box::new(scene)))
         }
         "binvox" => {
-            let (grid, frame) = crate::io::read_voxels(path, limit)?;
+            let (grid, frame, w) = crate::io::read_voxels_warned(path, limit)?;
+            super::print_grid_warnings(path, &w);
+            warnings.extend(w);
             Ok(Input::Grid(Box::new(Scene::from_frame(
                 grid,
                 &frame,
@@ -388,7 +397,8 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let (w, h) = args.size;
     crate::render::check_image(w, h, limit)?;
     let t = Instant::now();
-    let input = load(&args, limit)?;
+    let mut warnings = Vec::new();
+    let input = load(&args, limit, &mut warnings)?;
     let load_ms = ms(t);
     if matches!(input, Input::Grid(_))
         && (args.volume.is_some()
@@ -538,6 +548,7 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     });
     let obj = j.as_object_mut().expect("json! of an object literal");
     obj.extend(info);
+    obj.insert("warnings".into(), serde_json::json!(warnings));
     if args.measure {
         let t = Instant::now();
         let six = RenderOptions {

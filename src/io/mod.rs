@@ -10,7 +10,9 @@ pub mod volume;
 pub mod vox;
 mod voxels;
 
-pub use voxels::{VoxelFormat, read_voxels, write_voxels, write_voxels_limited};
+pub use voxels::{
+    VoxelFormat, read_voxels, read_voxels_warned, write_voxels, write_voxels_limited,
+};
 
 use std::fs;
 use std::io::{BufWriter, Write};

@@ -24,6 +24,26 @@
 //! ignore. A file without them reads with origin at the minimum corner of the
 //! models' placed boxes (in voxel units), voxel size 1, dims the boxes' extent.
 //!
+//! Scene graph (read as the MagicaVoxel editor shows frame 0): from the root
+//! `nTRN` (node 0) down, each `nTRN` composes its rotation `_r` (a signed
+//! axis permutation, all 48 of them, exact in integers) and
+//! translation `_t` with its parents'; `nGRP` groups nest; every `nSHP`
+//! places its model, so a model used by several shape nodes (instancing) is
+//! placed once per node. Voxel `l` of a model of size `s` is the unit cube
+//! about `l + ½ - ⌊s/2⌋` (ogt_vox's pivot rule, which vengi and the editor's
+//! files follow: the editor moves `_t` itself when it turns an odd-sized
+//! model); a rotation maps that cube to a cube of the world lattice, so
+//! placement is exact. Skipped, each with one warning line
+//! ([`read_warned`]): `nTRN`s with `_hidden = 1` and those on a `LAYR` with
+//! `_hidden = 1` (with their subtrees: the editor hides them); keyframes
+//! after the first (an `nTRN` with several frames or an `nSHP` with several
+//! models is read at the smallest `_f`, i.e. frame 0); and, in files without
+//! a scene graph that hold several models (the 0.98 layout, where the
+//! models are animation frames), every model but the first. The walk visits
+//! each node at most once (a cycle or a node with two parents is an error),
+//! and the bricks the placed models can cover are checked against the
+//! memory limit before the grid is built.
+//!
 //! Colours: [`read_colored`] also returns each placed voxel's colour index
 //! and the palette (the file's `RGBA` chunk, else MagicaVoxel's default),
 //! so a renderer can draw a scene in its own colours.
@@ -31,7 +51,7 @@
 use std::collections::HashMap;
 use std::io::Write;
 
-use glam::{DVec3, IVec3};
+use glam::{DVec3, I64Vec3, IVec3};
 
 use crate::error::{Result, VoxkitError};
 use crate::grid::brick::{BRICK_EDGE, mask_voxels};
@@ -247,10 +267,117 @@ impl<'a> Cursor<'a> {
     }
 }
 
+/// A signed axis permutation, MagicaVoxel's `_r`: the row-major 3×3 matrix
+/// whose row `i` has its one non-zero entry, `sign[i]`, in column `axis[i]`,
+/// applied to column vectors (`out[i] = sign[i] · in[axis[i]]`). All 48
+/// (the 24 rotations and their mirror images, which MagicaVoxel's flip tool
+/// writes) are exact on integer coordinates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct AxisPerm {
+    axis: [usize; 3],
+    sign: [i64; 3],
+}
+
+impl AxisPerm {
+    const IDENTITY: AxisPerm = AxisPerm {
+        axis: [0, 1, 2],
+        sign: [1, 1, 1],
+    };
+
+    /// Decodes the `_r` byte (MagicaVoxel-file-format-vox-extension.txt,
+    /// "ROTATION type"): bits 0–1 the column of row 0's entry, bits 2–3 that
+    /// of row 1 (row 2 takes the remaining column), bits 4, 5, 6 the signs of
+    /// rows 0, 1, 2 (1 = negative). `None` for anything else (a repeated or
+    /// out-of-range column, bit 7 set).
+    pub(crate) fn from_byte(b: u32) -> Option<AxisPerm> {
+        let (a0, a1) = ((b & 3) as usize, ((b >> 2) & 3) as usize);
+        if b > 127 || a0 > 2 || a1 > 2 || a0 == a1 {
+            return None;
+        }
+        let sign = |bit: u32| if (b >> bit) & 1 == 1 { -1 } else { 1 };
+        Some(AxisPerm {
+            axis: [a0, a1, 3 - a0 - a1],
+            sign: [sign(4), sign(5), sign(6)],
+        })
+    }
+
+    fn apply(&self, v: I64Vec3) -> I64Vec3 {
+        I64Vec3::from_array(std::array::from_fn(|i| self.sign[i] * v[self.axis[i]]))
+    }
+
+    /// `self ∘ inner` (`inner` applied first).
+    fn after(&self, inner: &AxisPerm) -> AxisPerm {
+        AxisPerm {
+            axis: std::array::from_fn(|i| inner.axis[self.axis[i]]),
+            sign: std::array::from_fn(|i| self.sign[i] * inner.sign[self.axis[i]]),
+        }
+    }
+}
+
+/// An affine placement `x ↦ rot(x) + t` of model space (voxel offsets from
+/// the model's pivot) in the world, the composition of the `nTRN` frames
+/// from the root down.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Place {
+    rot: AxisPerm,
+    t: I64Vec3,
+}
+
+impl Place {
+    const IDENTITY: Place = Place {
+        rot: AxisPerm::IDENTITY,
+        t: I64Vec3::ZERO,
+    };
+
+    /// `self ∘ inner`; `None` when a translation leaves ±2^30 (so no later
+    /// coordinate arithmetic can overflow `i32`).
+    fn then(&self, inner: &Place) -> Option<Place> {
+        let t = self.rot.apply(inner.t) + self.t;
+        (t.abs().max_element() < 1 << 30).then_some(Place {
+            rot: self.rot.after(&inner.rot),
+            t,
+        })
+    }
+
+    /// Where voxel `l` of a model of `size` lands, per axis `cell[i] =
+    /// sign[i] · l[a] + off[i]` with `a = axis[i]`: returns `off`.
+    ///
+    /// MagicaVoxel's pivot is `p = floor(size / 2)`; voxel `l` is the unit
+    /// cube `[l - p, l - p + 1]` about it (ogt_vox's "model pivots"; the
+    /// editor moves `_t` itself when it rotates an odd-sized model so that
+    /// the centre voxel stays put). A signed permutation maps that cube to
+    /// the cube with min corner `t + sign·(l - p)` on a positive axis and
+    /// `t - (l - p) - 1` on a negated one: `off = t - p[a]`, resp.
+    /// `t + p[a] - 1`.
+    fn offsets(&self, size: IVec3) -> I64Vec3 {
+        I64Vec3::from_array(std::array::from_fn(|i| {
+            let a = self.rot.axis[i];
+            let p = i64::from(size[a] / 2);
+            if self.rot.sign[i] > 0 {
+                self.t[i] - p
+            } else {
+                self.t[i] + p - 1
+            }
+        }))
+    }
+}
+
+/// One parsed scene-graph node (`nTRN` keeps its first keyframe only).
 enum Node {
-    Transform { child: i32, t: IVec3 },
+    Transform {
+        child: i32,
+        layer: i32,
+        hidden: bool,
+        /// Keyframes in the file (the first is kept in `frame`).
+        keyframes: usize,
+        frame: Place,
+    },
     Group(Vec<i32>),
-    Shape(Vec<i32>),
+    /// The model shown at frame 0, and how many keyframed models there are.
+    Shape {
+        model: i32,
+        keyframes: usize,
+    },
 }
 
 fn parse_ints<const N: usize>(s: &str) -> Option<[i64; N]> {
@@ -259,6 +386,22 @@ fn parse_ints<const N: usize>(s: &str) -> Option<[i64; N]> {
         .map(|x| x.parse().ok())
         .collect::<Option<_>>()?;
     v.try_into().ok()
+}
+
+/// A keyframe's `_f` (frame index; absent means frame 0).
+fn frame_index(d: &HashMap<String, String>) -> i64 {
+    d.get("_f").and_then(|f| f.trim().parse().ok()).unwrap_or(0)
+}
+
+/// "node 4" / "nodes 4, 9, 12" (at most five ids, then "…").
+fn node_list(ids: &[i32]) -> String {
+    let mut s = if ids.len() == 1 { "node " } else { "nodes " }.to_string();
+    let shown: Vec<String> = ids.iter().take(5).map(|i| i.to_string()).collect();
+    s += &shown.join(", ");
+    if ids.len() > 5 {
+        s += &format!(" and {} more", ids.len() - 5);
+    }
+    s
 }
 
 /// Colours of a .vox scene: the RGBA palette indexed by MagicaVoxel colour
@@ -342,28 +485,52 @@ fn palette_of_chunk(body: &[u8]) -> Result<[[u8; 4]; 256]> {
     Ok(p)
 }
 
-/// Reads a .vox file from memory (see the module docs for placement and the
-/// frame). Errors: bad magic, truncated chunks, model sizes outside 1..=256,
-/// voxels outside their model, rotated transforms (unsupported), a broken
-/// scene graph.
+/// Reads a .vox file from memory (see the module docs for placement, the
+/// scene graph and the frame). What was skipped (hidden layers and nodes,
+/// animation frames other than the first) is dropped here; use
+/// [`read_warned`] to get it. Errors: bad magic, truncated chunks, model
+/// sizes outside 1..=256, voxels outside their model, invalid rotations, a
+/// broken scene graph, every model hidden.
 pub fn read(bytes: &[u8], limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)> {
-    let (grid, frame, _) = read_scene(bytes, limit, false)?;
-    Ok((grid, frame))
+    let s = read_scene(bytes, limit, false)?;
+    Ok((s.grid, s.frame))
 }
 
-/// [`read`], plus the colours: the palette (the file's or the default) and
-/// the colour index of every placed voxel, for drawing the scene in its
-/// colours. The colour list is checked against `limit` before it is built.
-pub fn read_colored(bytes: &[u8], limit: MemoryLimit) -> Result<(BrickGrid, GridFrame, VoxColors)> {
+/// [`read`], plus one line per thing the reader skipped, as MagicaVoxel's
+/// editor does (hidden layers, hidden nodes, animation frames after the
+/// first): a user should see these.
+pub fn read_warned(
+    bytes: &[u8],
+    limit: MemoryLimit,
+) -> Result<(BrickGrid, GridFrame, Vec<String>)> {
+    let s = read_scene(bytes, limit, false)?;
+    Ok((s.grid, s.frame, s.warnings))
+}
+
+/// A .vox scene as read: the grid, its frame, the colours (empty voxel list
+/// unless asked for) and the warnings (see [`read_warned`]).
+#[derive(Clone, Debug)]
+pub struct VoxScene {
+    /// The placed voxels.
+    pub grid: BrickGrid,
+    /// The grid's frame.
+    pub frame: GridFrame,
+    /// Palette and per-voxel colour indices ([`read_colored`] only).
+    pub colors: VoxColors,
+    /// One line per thing skipped while reading.
+    pub warnings: Vec<String>,
+}
+
+/// [`read_warned`], plus the colours: the palette (the file's or the
+/// default) and the colour index of every placed voxel, for drawing the
+/// scene in its colours. The colour list is checked against `limit` before
+/// it is built.
+pub fn read_colored(bytes: &[u8], limit: MemoryLimit) -> Result<VoxScene> {
     read_scene(bytes, limit, true)
 }
 
 /// The shared reader; the colour list is built only if `colors`.
-fn read_scene(
-    bytes: &[u8],
-    limit: MemoryLimit,
-    colors: bool,
-) -> Result<(BrickGrid, GridFrame, VoxColors)> {
+fn read_scene(bytes: &[u8], limit: MemoryLimit, colors: bool) -> Result<VoxScene> {
     let mut c = Cursor { b: bytes, pos: 0 };
     if c.take(4)? != b"VOX " {
         return Err(bad("missing 'VOX ' magic"));
@@ -388,6 +555,10 @@ fn read_scene(
     let mut palette = None;
     let mut nodes: HashMap<i32, Node> = HashMap::new();
     let mut root_attrs = HashMap::new();
+    // Layer id → (hidden, name).
+    let mut layers: HashMap<i32, (bool, String)> = HashMap::new();
+    let mut animated_transforms: Vec<i32> = Vec::new();
+    let mut animated_shapes: Vec<i32> = Vec::new();
     while c.pos < end {
         let id: [u8; 4] = c.take(4)?.try_into().expect("4 bytes");
         let n_content = c.len()?;
@@ -399,21 +570,24 @@ fn read_scene(
             b"SIZE" => {
                 let s = IVec3::new(b.i32()?, b.i32()?, b.i32()?);
                 if s.cmplt(IVec3::ONE).any() || s.cmpgt(IVec3::splat(MAX_MODEL as i32)).any() {
-                    return Err(bad(format!("model size {s} outside 1..=256")));
+                    return Err(bad(format!(
+                        "SIZE chunk of model {}: size {s} outside 1..=256",
+                        sizes.len()
+                    )));
                 }
                 sizes.push(s);
             }
             b"XYZI" => {
-                let s = *sizes
-                    .get(models.len())
-                    .ok_or_else(|| bad("XYZI without SIZE"))?;
+                let s = *sizes.get(models.len()).ok_or_else(|| {
+                    bad(format!("XYZI chunk of model {} without SIZE", models.len()))
+                })?;
                 let n = b.len()?;
                 let raw = b.take(n.checked_mul(4).ok_or_else(|| bad("voxel count"))?)?;
                 for q in raw.chunks_exact(4) {
                     let v = IVec3::new(q[0] as i32, q[1] as i32, q[2] as i32);
                     if v.cmpge(s).any() {
                         return Err(bad(format!(
-                            "model {}: voxel {v} outside its size {s}",
+                            "XYZI chunk of model {}: voxel {v} outside its size {s}",
                             models.len()
                         )));
                     }
@@ -425,125 +599,273 @@ fn read_scene(
                 let attrs = b.dict()?;
                 let child = b.i32()?;
                 let _reserved = b.i32()?;
-                let _layer = b.i32()?;
+                let layer = b.i32()?;
                 let frames = b.len()?;
-                let mut t = IVec3::ZERO;
-                for f in 0..frames {
+                // Keyframes: the editor shows frame 0, i.e. the keyframe
+                // with the smallest `_f` (ogt_vox samples it the same way).
+                let mut first: Option<(i64, HashMap<String, String>)> = None;
+                for _ in 0..frames {
                     let d = b.dict()?;
-                    if f > 0 {
-                        continue;
-                    }
-                    if let Some(r) = d.get("_r")
-                        && r.trim() != "4"
-                    {
-                        return Err(VoxkitError::Unsupported(format!(
-                            "vox: node {node} has a rotation ({r}); only unrotated models are supported"
-                        )));
-                    }
-                    if let Some(s) = d.get("_t") {
-                        let [x, y, z] = parse_ints::<3>(s)
-                            .filter(|a| a.iter().all(|v| v.unsigned_abs() < 1 << 30))
-                            .ok_or_else(|| bad(format!("node {node}: bad translation {s:?}")))?;
-                        t = IVec3::new(x as i32, y as i32, z as i32);
+                    let f = frame_index(&d);
+                    if first.as_ref().is_none_or(|(g, _)| f < *g) {
+                        first = Some((f, d));
                     }
                 }
+                let mut frame = Place::IDENTITY;
+                if let Some((_, d)) = first {
+                    if let Some(r) = d.get("_r") {
+                        frame.rot = r
+                            .trim()
+                            .parse::<u32>()
+                            .ok()
+                            .and_then(AxisPerm::from_byte)
+                            .ok_or_else(|| {
+                                bad(format!(
+                                    "nTRN node {node}: rotation _r = {r:?} is not a signed axis permutation"
+                                ))
+                            })?;
+                    }
+                    if let Some(s) = d.get("_t") {
+                        let t = parse_ints::<3>(s)
+                            .filter(|a| a.iter().all(|v| v.unsigned_abs() < 1 << 30))
+                            .ok_or_else(|| {
+                                bad(format!("nTRN node {node}: bad translation _t = {s:?}"))
+                            })?;
+                        frame.t = I64Vec3::from_array(t);
+                    }
+                }
+                let hidden = attrs.get("_hidden").is_some_and(|h| h.trim() == "1");
                 if node == 0 {
                     root_attrs = attrs;
                 }
-                nodes.insert(node, Node::Transform { child, t });
+                nodes.insert(
+                    node,
+                    Node::Transform {
+                        child,
+                        layer,
+                        hidden,
+                        keyframes: frames,
+                        frame,
+                    },
+                );
             }
             b"nGRP" => {
                 let node = b.i32()?;
                 b.dict()?;
                 let n = b.len()?;
-                let kids = (0..n).map(|_| b.i32()).collect::<Result<Vec<_>>>()?;
+                // A count the chunk cannot hold must not size an allocation.
+                let mut kids = Vec::with_capacity(n.min((b.b.len() - b.pos) / 4));
+                for _ in 0..n {
+                    kids.push(b.i32()?);
+                }
                 nodes.insert(node, Node::Group(kids));
             }
             b"nSHP" => {
                 let node = b.i32()?;
                 b.dict()?;
                 let n = b.len()?;
-                // Each model entry takes at least 8 bytes (id, attribute
-                // count): a count the chunk cannot hold must not size the
-                // allocation (fuzzing found 1.4·10^9 asked in a 1.4 KB file).
-                let mut ids = Vec::with_capacity(n.min((b.b.len() - b.pos) / 8));
+                // Several models are the shape's animation keyframes (`_f`
+                // in each model's attributes): frame 0 shows the first. The
+                // count is checked by reading, never used to allocate
+                // (fuzzing found 1.4·10^9 asked in a 1.4 KB file).
+                let mut first: Option<(i64, i32)> = None;
                 for _ in 0..n {
-                    ids.push(b.i32()?);
-                    b.dict()?;
+                    let m = b.i32()?;
+                    let f = frame_index(&b.dict()?);
+                    if first.is_none_or(|(g, _)| f < g) {
+                        first = Some((f, m));
+                    }
                 }
-                nodes.insert(node, Node::Shape(ids));
+                let (_, model) =
+                    first.ok_or_else(|| bad(format!("nSHP node {node} has no model")))?;
+                nodes.insert(
+                    node,
+                    Node::Shape {
+                        model,
+                        keyframes: n,
+                    },
+                );
+            }
+            b"LAYR" => {
+                let layer = b.i32()?;
+                let attrs = b.dict()?;
+                let hidden = attrs.get("_hidden").is_some_and(|h| h.trim() == "1");
+                let name = attrs.get("_name").cloned().unwrap_or_default();
+                layers.insert(layer, (hidden, name));
             }
             b"RGBA" => palette = Some(palette_of_chunk(body)?),
-            _ => {} // materials, layers, cameras, index map...: not needed
+            _ => {} // materials, cameras, index map, notes...: not needed
         }
     }
     if models.len() != sizes.len() {
-        return Err(bad("SIZE without XYZI"));
+        return Err(bad(format!(
+            "SIZE chunk of model {} without XYZI",
+            models.len()
+        )));
     }
     if models.is_empty() {
         return Err(bad("no model"));
     }
 
-    // Placement: voxel l of model m at offset[m] + l.
-    let mut offset: Vec<Option<IVec3>> = vec![None; models.len()];
+    let mut warnings = Vec::new();
+    // Placements (model, world placement of its pivot frame).
+    let mut placed: Vec<(usize, Place)> = Vec::new();
     if nodes.is_empty() {
-        offset.iter_mut().for_each(|o| *o = Some(IVec3::ZERO));
+        // No scene graph: the 0.98 layout, where several models are the
+        // frames of an animation (MagicaVoxel-file-format-vox.txt). Frame 0
+        // is what the editor shows; the model keeps its own coordinates
+        // (a translation by its pivot cancels the pivot).
+        if models.len() > 1 {
+            warnings.push(format!(
+                "{} models and no scene graph: they are animation frames \
+                 (MagicaVoxel 0.98 layout); read frame 0 only",
+                models.len()
+            ));
+        }
+        let p = (sizes[0] / 2).as_i64vec3();
+        placed.push((
+            0,
+            Place {
+                rot: AxisPerm::IDENTITY,
+                t: p,
+            },
+        ));
     } else {
-        // Walk from the root accumulating translations; a bounded walk so a
-        // cyclic graph cannot hang.
-        let mut stack = vec![(0i32, IVec3::ZERO)];
+        // Depth-first from the root (node 0), composing the transforms. A
+        // scene graph is a tree, so the walk is bounded by the node count:
+        // a cycle or shared subtrees cannot make it hang or multiply.
+        let mut hidden_nodes: Vec<i32> = Vec::new();
+        let mut hidden_layers: Vec<i32> = Vec::new();
+        let mut stack = vec![(0i32, Place::IDENTITY)];
         let mut steps = 0usize;
         while let Some((id, acc)) = stack.pop() {
             steps += 1;
-            if steps > 4 * nodes.len() + 4 {
-                return Err(bad("scene graph has a cycle"));
+            if steps > nodes.len() {
+                return Err(bad(format!(
+                    "scene graph: node {id} is reached twice (a cycle or a shared node)"
+                )));
             }
             match nodes.get(&id) {
-                Some(Node::Transform { child, t }) => {
-                    // Nested translations add up: keep the sum in the
-                    // range every single translation has, so no later
-                    // coordinate arithmetic can overflow.
-                    let sum = acc.as_i64vec3() + t.as_i64vec3();
-                    if sum.abs().max_element() >= 1 << 30 {
-                        return Err(bad(format!("node {id}: placement {sum} out of range")));
+                Some(Node::Transform {
+                    child,
+                    layer,
+                    hidden,
+                    keyframes,
+                    frame,
+                }) => {
+                    if *hidden {
+                        hidden_nodes.push(id);
+                        continue;
                     }
-                    stack.push((*child, sum.as_ivec3()));
+                    if layers.get(layer).is_some_and(|(h, _)| *h) {
+                        if !hidden_layers.contains(layer) {
+                            hidden_layers.push(*layer);
+                        }
+                        continue;
+                    }
+                    if *keyframes > 1 {
+                        animated_transforms.push(id);
+                    }
+                    let next = acc.then(frame).ok_or_else(|| {
+                        bad(format!("nTRN node {id}: placement out of range ±2^30"))
+                    })?;
+                    stack.push((*child, next));
                 }
-                Some(Node::Group(kids)) => stack.extend(kids.iter().map(|&k| (k, acc))),
-                Some(Node::Shape(ids)) => {
-                    for &m in ids {
-                        let mi = usize::try_from(m)
-                            .ok()
-                            .filter(|&m| m < models.len())
-                            .ok_or_else(|| {
-                                bad(format!("shape node {id} uses missing model {m}"))
-                            })?;
-                        // Pivot at the model's centre (integer division).
-                        offset[mi] = Some(acc - sizes[mi] / 2);
+                Some(Node::Group(kids)) => stack.extend(kids.iter().rev().map(|&k| (k, acc))),
+                Some(Node::Shape {
+                    model: m,
+                    keyframes,
+                }) => {
+                    if *keyframes > 1 {
+                        animated_shapes.push(id);
                     }
+                    let mi = usize::try_from(*m)
+                        .ok()
+                        .filter(|&m| m < models.len())
+                        .ok_or_else(|| bad(format!("nSHP node {id} uses missing model {m}")))?;
+                    placed.push((mi, acc));
                 }
                 None => return Err(bad(format!("scene graph refers to missing node {id}"))),
             }
         }
-    }
-
-    // A model no shape node places is not part of the scene.
-    let placed: Vec<(IVec3, &[u8])> = offset
-        .iter()
-        .zip(&models)
-        .filter_map(|(o, raw)| o.map(|o| (o, *raw)))
-        .collect();
-    let mut lo = IVec3::MAX;
-    let mut hi = IVec3::MIN;
-    for (m, o) in offset.iter().enumerate() {
-        if let Some(o) = o {
-            lo = lo.min(*o);
-            hi = hi.max(*o + sizes[m]);
+        if !hidden_nodes.is_empty() {
+            warnings.push(format!(
+                "skipped hidden {} (hidden in MagicaVoxel, so not shown)",
+                node_list(&hidden_nodes)
+            ));
+        }
+        hidden_layers.sort_unstable();
+        for l in hidden_layers {
+            let name = &layers[&l].1;
+            let name = if name.is_empty() {
+                String::new()
+            } else {
+                format!(" ({name:?})")
+            };
+            warnings.push(format!("skipped hidden layer {l}{name}"));
+        }
+        animated_transforms.sort_unstable();
+        if !animated_transforms.is_empty() {
+            warnings.push(format!(
+                "animated transforms in {}: read frame 0 (the first keyframe) only",
+                node_list(&animated_transforms)
+            ));
+        }
+        animated_shapes.sort_unstable();
+        if !animated_shapes.is_empty() {
+            warnings.push(format!(
+                "animated shapes in {}: read frame 0 (the first keyframe's model) only",
+                node_list(&animated_shapes)
+            ));
         }
     }
-    if lo.x > hi.x {
-        return Err(bad("no model is placed in the scene"));
+    if placed.is_empty() {
+        return Err(bad(if warnings.is_empty() {
+            "no model is placed in the scene".to_string()
+        } else {
+            format!(
+                "nothing is visible ({}); show the models in MagicaVoxel to read them",
+                warnings.join("; ")
+            )
+        }));
     }
+
+    // Per placement: the offsets of `cell[i] = sign[i]·l[axis[i]] + off[i]`
+    // and the box of the placed model.
+    let mut lo = I64Vec3::MAX;
+    let mut hi = I64Vec3::MIN;
+    let mut bricks: u128 = 0;
+    let layout: Vec<(AxisPerm, I64Vec3, &[u8])> = placed
+        .iter()
+        .map(|&(m, place)| {
+            let off = place.offsets(sizes[m]);
+            let s = sizes[m].as_i64vec3();
+            for i in 0..3 {
+                let ext = s[place.rot.axis[i]] - 1;
+                let (a, b) = if place.rot.sign[i] > 0 {
+                    (off[i], off[i] + ext)
+                } else {
+                    (off[i] - ext, off[i])
+                };
+                lo[i] = lo[i].min(a);
+                hi[i] = hi[i].max(b + 1);
+            }
+            // An instance covers at most one brick per voxel and at most
+            // its box's bricks (one more per axis when unaligned).
+            let box_bricks: u128 = s
+                .to_array()
+                .iter()
+                .map(|&e| (e as u128).div_ceil(8) + 1)
+                .product();
+            bricks += box_bricks.min((models[m].len() / 4) as u128);
+            (place.rot, off, models[m])
+        })
+        .collect();
+    // Instancing multiplies voxels: cap the grid being built (~96 bytes per
+    // brick with its map entry) before building it.
+    limit.check("vox scene (placed models)", bricks, 96)?;
+    let lo = lo.as_ivec3();
+    let hi = hi.as_ivec3();
 
     // With the frame stored, voxels keep their placed coordinates;
     // without it, they shift so the placed boxes start at voxel 0.
@@ -580,10 +902,14 @@ fn read_scene(
     };
 
     let records = || {
-        placed.iter().flat_map(move |&(o, raw)| {
+        layout.iter().flat_map(move |&(rot, off, raw)| {
+            let off = off.as_ivec3() + shift;
+            let sign = rot.sign.map(|s| s as i32);
             raw.chunks_exact(4).map(move |q| {
-                let v = IVec3::new(q[0] as i32, q[1] as i32, q[2] as i32);
-                (v + o + shift, q[3])
+                let v = IVec3::from_array(std::array::from_fn(|i| {
+                    sign[i] * q[rot.axis[i]] as i32 + off[i]
+                }));
+                (v, q[3])
             })
         })
     };
@@ -593,7 +919,7 @@ fn read_scene(
     grid.check_inside(frame.dims)?;
     let mut voxels = Vec::new();
     if colors {
-        let n: usize = placed.iter().map(|(_, raw)| raw.len() / 4).sum();
+        let n: usize = layout.iter().map(|(_, _, raw)| raw.len() / 4).sum();
         limit.check(
             "vox colour list",
             n as u128,
@@ -606,7 +932,12 @@ fn read_scene(
         palette: palette.unwrap_or_else(default_palette),
         voxels,
     };
-    Ok((grid, frame, colors))
+    Ok(VoxScene {
+        grid,
+        frame,
+        colors,
+        warnings,
+    })
 }
 
 #[cfg(test)]
@@ -694,7 +1025,12 @@ mod tests {
         };
         let mut bytes = Vec::new();
         data.write_vox(&mut bytes).unwrap();
-        let (grid, frame, colors) = read_colored(&bytes, MemoryLimit::DEFAULT).unwrap();
+        let VoxScene {
+            grid,
+            frame,
+            colors,
+            ..
+        } = read_colored(&bytes, MemoryLimit::DEFAULT).unwrap();
         assert_eq!(frame.dims, [5, 5, 5]);
         assert_eq!(grid.count(), 4);
         assert_eq!(colors.voxels.len(), 4);
@@ -725,7 +1061,13 @@ mod tests {
         let frame = GridFrame::new(DVec3::new(1.0, 2.0, 3.0), 0.5, [300, 261, 3]);
         let mut bytes = Vec::new();
         write(&mut bytes, &grid, &frame).unwrap();
-        let (g, f, colors) = read_colored(&bytes, MemoryLimit::DEFAULT).unwrap();
+        let VoxScene {
+            grid: g,
+            frame: f,
+            colors,
+            warnings,
+        } = read_colored(&bytes, MemoryLimit::DEFAULT).unwrap();
+        assert!(warnings.is_empty(), "{warnings:?}");
         assert_eq!((&g, f), (&grid, frame));
         assert_eq!(colors.palette, default_palette());
         let mut placed: Vec<IVec3> = colors
@@ -740,12 +1082,16 @@ mod tests {
         let mut want: Vec<IVec3> = grid.iter().collect();
         want.sort_by_key(|v| (v.z, v.y, v.x));
         assert_eq!(placed, want);
-        // The colour list counts against the limit.
-        assert!(matches!(
-            read_colored(&bytes, MemoryLimit::new(10)),
-            Err(VoxkitError::Limits { .. })
-        ));
-        assert!(read(&bytes, MemoryLimit::new(10)).is_ok());
+        // The grid's bricks count against the limit before it is built (at
+        // most one per placed voxel: 3 × 96 bytes), and so does the colour
+        // list.
+        assert!(read(&bytes, MemoryLimit::new(3 * 96)).is_ok());
+        for r in [
+            read(&bytes, MemoryLimit::new(3 * 96 - 1)).map(|_| ()),
+            read_colored(&bytes, MemoryLimit::new(10)).map(|_| ()),
+        ] {
+            assert!(matches!(r, Err(VoxkitError::Limits { .. })));
+        }
     }
 
     #[test]

@@ -102,8 +102,20 @@ pub fn write_voxels_limited(
 
 /// Reads a voxel file (format by extension). `limit` caps what the reader
 /// allocates (checked from the header, before allocating). Errors name the
-/// file.
+/// file. What a reader skipped while reading (a .vox file's hidden layers,
+/// say) is dropped: [`read_voxels_warned`] returns it.
 pub fn read_voxels(path: &Path, limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)> {
+    read_voxels_warned(path, limit).map(|(grid, frame, _)| (grid, frame))
+}
+
+/// [`read_voxels`], plus one line per thing the reader skipped while still
+/// reading the grid (.vox: hidden layers and nodes, animation frames after
+/// the first), for the caller to show (the command line prints each as
+/// `warning: …` and lists them under `warnings` in `--json`).
+pub fn read_voxels_warned(
+    path: &Path,
+    limit: MemoryLimit,
+) -> Result<(BrickGrid, GridFrame, Vec<String>)> {
     let format = VoxelFormat::from_path(path)?;
     let io_err = |source| VoxkitError::Io {
         path: path.to_path_buf(),
@@ -112,11 +124,12 @@ pub fn read_voxels(path: &Path, limit: MemoryLimit) -> Result<(BrickGrid, GridFr
     let len = std::fs::metadata(path).map_err(io_err)?.len();
     limit.check(&format!("reading {}", path.display()), len as u128, 1)?;
     let bytes = std::fs::read(path).map_err(io_err)?;
+    let plain = |r: Result<(BrickGrid, GridFrame)>| r.map(|(g, f)| (g, f, Vec::new()));
     let result = match format {
-        VoxelFormat::Binvox => super::binvox::read(&bytes, limit),
-        VoxelFormat::Vox => super::vox::read(&bytes, limit),
-        VoxelFormat::Npy => super::npy::read(&bytes, limit),
-        VoxelFormat::Nrrd => super::nrrd::read(&bytes, limit),
+        VoxelFormat::Binvox => plain(super::binvox::read(&bytes, limit)),
+        VoxelFormat::Vox => super::vox::read_warned(&bytes, limit),
+        VoxelFormat::Npy => plain(super::npy::read(&bytes, limit)),
+        VoxelFormat::Nrrd => plain(super::nrrd::read(&bytes, limit)),
     };
     result.map_err(|e| match e {
         VoxkitError::Invalid(m) => VoxkitError::Invalid(format!("{}: {m}", path.display())),

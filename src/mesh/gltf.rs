@@ -4,14 +4,39 @@
 //! Reads every primitive of the default scene (scene 0 when none is marked
 //! default), walking the node tree recursively and applying node transforms
 //! (TRS composed in f64) to the vertices, so an instanced mesh contributes
-//! one copy per node. Buffers are loaded (data URIs, external `.bin`, the GLB
-//! binary chunk); images are never decoded.
+//! one copy per node. A file with no scene at all (the spec allows it: a
+//! library of assets) reads every root node, or, with no nodes either, every
+//! mesh once untransformed, with a warning saying so; a scene without nodes
+//! is refused as empty. Buffers are loaded (data URIs, external `.bin`, the
+//! GLB binary chunk); images are never decoded.
 //!
 //! Primitive modes: `TRIANGLES` as is; `TRIANGLE_STRIP` and `TRIANGLE_FAN`
 //! converted to triangles; `LINES`, `LINE_STRIP`, `LINE_LOOP` become
 //! polylines; `POINTS` are skipped and counted. Accessors are checked against
 //! their buffer views and buffers before they are read (a truncated `.bin`
-//! is an error, not a panic); sparse accessors are not supported.
+//! is an error, not a panic).
+//!
+//! Accessors: sparse ones (core glTF 2.0, with or without a base buffer
+//! view) are read through the `gltf` crate's sparse iterator after their
+//! index and value views are checked (indices must increase strictly and
+//! stay below the count). Positions may be `float`, or, as
+//! `KHR_mesh_quantization` allows, `(unsigned) byte` / `short`, normalized
+//! or not: the crate's `read_positions` reads every position as `f32` bytes,
+//! so integer positions are read with its typed iterator and dequantized
+//! here (normalized: `c / 255`, `c / 65535`, `max(c / 127, -1)`,
+//! `max(c / 32767, -1)`, the spec's formulas); the node transform (usually a
+//! scale) then maps them to the model's units.
+//!
+//! Extensions: a file's `extensionsRequired` is checked before the crate
+//! validates it (which would reject every required extension in a long
+//! JSON error). Refused in one line naming the extension and what to do:
+//! `KHR_draco_mesh_compression` (also when only used but a primitive's
+//! positions exist only compressed), `EXT_meshopt_compression` views whose
+//! fallback buffer has no data, and any other required extension that
+//! changes geometry. Read: `KHR_mesh_quantization`; `EXT_meshopt_compression`
+//! whose uncompressed fallback buffers carry the data (gltfpack `-cf`);
+//! required material, texture and light extensions, which do not change the
+//! geometry (ignored, with a warning).
 //!
 //! [`load`] reads a file; [`parse`] takes the bytes (and, optionally, the
 //! folder external buffers are read from). The `gltf` crate's parsing,
@@ -64,29 +89,50 @@ pub fn load(path: &Path) -> Result<Mesh> {
 /// assert!(err.to_string().contains("the gltf reader failed on this input"), "{err}");
 /// ```
 pub fn parse(bytes: &[u8], base_dir: Option<&Path>, name: &str) -> Result<Mesh> {
-    let gltf = contain(name, "gltf", || gltf::Gltf::from_slice(bytes))?
-        .map_err(|e| VoxkitError::invalid(format!("{name}: glTF: {e}")))?;
-    let buffers = contain(name, "gltf", || {
-        gltf::import_buffers(&gltf.document, base_dir, gltf.blob.clone())
+    let (json, blob) = if bytes.starts_with(b"glTF") {
+        let glb = contain(name, "gltf", || {
+            gltf::binary::Glb::from_slice(bytes)
+                .map(|g| (g.json.into_owned(), g.bin.map(|b| b.into_owned())))
+        })?
+        .map_err(|e| VoxkitError::invalid(format!("{name}: GLB container: {e}")))?;
+        (std::borrow::Cow::Owned(glb.0), glb.1)
+    } else {
+        (std::borrow::Cow::Borrowed(bytes), None)
+    };
+    let mut summary = LoadSummary::default();
+    let pre = preflight(&json, name, &mut summary)?;
+    let root = contain(name, "gltf", || match &pre.json {
+        Some(fixed) => gltf::json::deserialize::from_slice::<gltf::json::Root>(fixed),
+        None => gltf::json::deserialize::from_slice::<gltf::json::Root>(&json),
     })?
-    .map_err(|e| VoxkitError::invalid(format!("{name}: glTF buffers: {e}")))?;
-    let doc = &gltf.document;
-    let scene = doc
-        .default_scene()
-        .or_else(|| doc.scenes().next())
-        .ok_or_else(|| VoxkitError::invalid(format!("{name}: the file has no scene")))?;
+    .map_err(|e| VoxkitError::invalid(format!("{name}: glTF JSON: {e}")))?;
+    let doc = contain(name, "gltf", || gltf::Document::from_json(root))?
+        .map_err(|e| VoxkitError::invalid(format!("{name}: {}", describe(&e))))?;
+    let buffers = import_buffers(&doc, base_dir, blob, &pre.dataless, name)?;
 
     let mut acc = Collect {
         name,
         buffers: &buffers,
+        dataless: &pre.dataless,
         positions: Vec::new(),
         triangles: Vec::new(),
         polylines: Vec::new(),
-        summary: LoadSummary::default(),
+        summary,
         max_depth: doc.nodes().len(),
     };
-    for node in scene.nodes() {
-        acc.node(&node, DMat4::IDENTITY, 0)?;
+    match doc.default_scene().or_else(|| doc.scenes().next()) {
+        Some(scene) => {
+            if scene.nodes().len() == 0 {
+                return Err(VoxkitError::invalid(format!(
+                    "{name}: scene {} is empty (it has no nodes): nothing to load",
+                    scene.index()
+                )));
+            }
+            for node in scene.nodes() {
+                acc.node(&node, DMat4::IDENTITY, 0)?;
+            }
+        }
+        None => acc.without_scene(&doc)?,
     }
     let Collect {
         positions,
@@ -98,9 +144,195 @@ pub fn parse(bytes: &[u8], base_dir: Option<&Path>, name: &str) -> Result<Mesh> 
     Mesh::from_parts_with(name, positions, triangles, polylines, &mut summary)
 }
 
+/// What [`preflight`] found: the JSON to parse instead of the file's (when
+/// it had to be adjusted), and the buffers that hold no data (meshopt
+/// fallbacks).
+struct Preflight {
+    json: Option<Vec<u8>>,
+    dataless: Vec<usize>,
+}
+
+/// Extensions that change only materials, textures, lights or metadata:
+/// required or not, the geometry reads the same without them.
+fn geometry_neutral(ext: &str) -> bool {
+    ext.starts_with("KHR_materials_")
+        || ext.starts_with("KHR_texture_")
+        || ext.starts_with("EXT_texture_")
+        || matches!(
+            ext,
+            "KHR_lights_punctual"
+                | "EXT_lights_image_based"
+                | "MSFT_texture_dds"
+                | "KHR_xmp_json_ld"
+        )
+}
+
+/// The meshopt extension names (the EXT and its KHR successor).
+const MESHOPT: [&str; 2] = ["EXT_meshopt_compression", "KHR_meshopt_compression"];
+const DRACO: &str = "KHR_draco_mesh_compression";
+
+fn draco_refusal(name: &str, place: &str) -> VoxkitError {
+    VoxkitError::Unsupported(format!(
+        "{name}: {place} uses {DRACO} (Draco-compressed geometry), which voxkit does not \
+         decode; re-export without Draco compression"
+    ))
+}
+
+/// Checks the file's extensions on its raw JSON, before the `gltf` crate
+/// sees it, and adjusts what the crate would refuse although the file is
+/// valid: `extensionsRequired` (the crate knows none of the extensions
+/// voxkit reads) and scenes without `nodes` (optional in the spec, required
+/// by the crate's types). Refuses, in one line, what voxkit cannot read.
+fn preflight(json: &[u8], name: &str, summary: &mut LoadSummary) -> Result<Preflight> {
+    use serde_json::Value;
+    let mut v: Value = serde_json::from_slice(json)
+        .map_err(|e| VoxkitError::invalid(format!("{name}: glTF JSON: {e}")))?;
+    let mut changed = false;
+    let required: Vec<String> = v
+        .get("extensionsRequired")
+        .and_then(Value::as_array)
+        .map(|a| {
+            a.iter()
+                .filter_map(|e| e.as_str().map(str::to_string))
+                .collect()
+        })
+        .unwrap_or_default();
+    if required.iter().any(|e| e == DRACO) {
+        return Err(draco_refusal(name, "the file"));
+    }
+    for ext in &required {
+        if ext == "KHR_mesh_quantization" || MESHOPT.contains(&ext.as_str()) {
+            continue;
+        }
+        if geometry_neutral(ext) {
+            summary.warnings.push(format!(
+                "ignored required extension {ext} (it does not change the geometry)"
+            ));
+            continue;
+        }
+        return Err(VoxkitError::Unsupported(format!(
+            "{name}: the file requires the glTF extension {ext}, which voxkit does not read; \
+             re-export without it"
+        )));
+    }
+    // Draco used but not required: the primitives keep uncompressed
+    // accessors, unless their positions exist only compressed.
+    let accessors = v.get("accessors").and_then(Value::as_array);
+    for (mi, mesh) in array(&v, "meshes").iter().enumerate() {
+        for (pi, prim) in array(mesh, "primitives").iter().enumerate() {
+            if prim.pointer(&format!("/extensions/{DRACO}")).is_none() {
+                continue;
+            }
+            let pos = prim
+                .pointer("/attributes/POSITION")
+                .and_then(Value::as_u64)
+                .and_then(|i| accessors.and_then(|a| a.get(i as usize)));
+            if pos.is_none_or(|a| a.get("bufferView").is_none() && a.get("sparse").is_none()) {
+                return Err(draco_refusal(name, &format!("mesh {mi} primitive {pi}")));
+            }
+        }
+    }
+    // Meshopt fallback buffers marked `fallback: true` carry no data unless
+    // they have a URI (gltfpack `-cf` writes one); reading a view of a
+    // dataless one is refused where it happens (`check_view`).
+    let dataless: Vec<usize> = array(&v, "buffers")
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| {
+            b.get("uri").is_none()
+                && MESHOPT.iter().any(|m| {
+                    b.pointer(&format!("/extensions/{m}/fallback"))
+                        .and_then(Value::as_bool)
+                        == Some(true)
+                })
+        })
+        .map(|(i, _)| i)
+        .collect();
+    if !required.is_empty() {
+        v["extensionsRequired"] = Value::Array(Vec::new());
+        changed = true;
+    }
+    if let Some(scenes) = v.get_mut("scenes").and_then(Value::as_array_mut) {
+        for s in scenes.iter_mut().filter_map(Value::as_object_mut) {
+            if !s.contains_key("nodes") {
+                s.insert("nodes".into(), Value::Array(Vec::new()));
+                changed = true;
+            }
+        }
+    }
+    let json = changed.then(|| serde_json::to_vec(&v).expect("a parsed JSON value serializes"));
+    Ok(Preflight { json, dataless })
+}
+
+/// `v[key]` as a slice (empty when absent or not an array).
+fn array<'v>(v: &'v serde_json::Value, key: &str) -> &'v [serde_json::Value] {
+    v.get(key)
+        .and_then(serde_json::Value::as_array)
+        .map_or(&[], Vec::as_slice)
+}
+
+/// One line for a `gltf` crate error: a validation report lists every
+/// problem (thousands on a broken file), so only the first is named.
+fn describe(e: &gltf::Error) -> String {
+    match e {
+        gltf::Error::Validation(list) if !list.is_empty() => {
+            let (path, err) = &list[0];
+            let more = match list.len() - 1 {
+                0 => String::new(),
+                1 => " (and 1 more problem)".to_string(),
+                n => format!(" (and {n} more problems)"),
+            };
+            format!("invalid glTF: {path}: {err}{more}")
+        }
+        other => format!("glTF: {other}"),
+    }
+}
+
+/// The buffers' bytes: data URIs, external files (relative to `base`), the
+/// GLB binary chunk. A dataless meshopt fallback gets no bytes (and must not
+/// take the GLB chunk, which the crate gives to any buffer without a URI).
+fn import_buffers(
+    doc: &gltf::Document,
+    base: Option<&Path>,
+    mut blob: Option<Vec<u8>>,
+    dataless: &[usize],
+    name: &str,
+) -> Result<Vec<gltf::buffer::Data>> {
+    let mut out = Vec::with_capacity(doc.buffers().len());
+    for b in doc.buffers() {
+        if dataless.contains(&b.index()) {
+            out.push(gltf::buffer::Data(Vec::new()));
+            continue;
+        }
+        let data = contain(name, "gltf", || {
+            gltf::buffer::Data::from_source_and_blob(b.source(), base, &mut blob)
+        })?
+        .map_err(|e| {
+            let src = match b.source() {
+                gltf::buffer::Source::Uri(u) if u.starts_with("data:") => " (data URI)".to_string(),
+                gltf::buffer::Source::Uri(u) => format!(" ({u})"),
+                gltf::buffer::Source::Bin => " (GLB binary chunk)".to_string(),
+            };
+            VoxkitError::invalid(format!("{name}: buffer {}{src}: {e}", b.index()))
+        })?;
+        if data.len() < b.length() {
+            return Err(VoxkitError::invalid(format!(
+                "{name}: buffer {} has {} bytes, the file declares {}",
+                b.index(),
+                data.len(),
+                b.length()
+            )));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
 struct Collect<'a> {
     name: &'a str,
     buffers: &'a [gltf::buffer::Data],
+    /// Buffers without data (meshopt fallbacks).
+    dataless: &'a [usize],
     positions: Vec<DVec3>,
     triangles: Vec<[u32; 3]>,
     polylines: Vec<Vec<u32>>,
@@ -139,11 +371,56 @@ impl Collect<'_> {
         let world = parent * local_matrix(node);
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
-                self.primitive(&prim, &world, mesh.index(), node.index())?;
+                self.primitive(&prim, &world, mesh.index(), Some(node.index()))?;
             }
         }
         for child in node.children() {
             self.node(&child, world, depth + 1)?;
+        }
+        Ok(())
+    }
+
+    /// A file without scenes: every root node (a node no other node lists as
+    /// a child) with its subtree, or, without nodes, every mesh once.
+    fn without_scene(&mut self, doc: &gltf::Document) -> Result<()> {
+        let name = self.name;
+        if doc.nodes().len() > 0 {
+            let mut is_child = vec![false; doc.nodes().len()];
+            for n in doc.nodes() {
+                for c in n.children() {
+                    is_child[c.index()] = true;
+                }
+            }
+            let roots: Vec<gltf::Node> = doc.nodes().filter(|n| !is_child[n.index()]).collect();
+            if roots.is_empty() {
+                return Err(VoxkitError::invalid(format!(
+                    "{name}: the file has no scene, and every node is another's child (a cycle)"
+                )));
+            }
+            self.summary.warnings.push(format!(
+                "the file has no scene: read its {} root node{}",
+                roots.len(),
+                if roots.len() == 1 { "" } else { "s" }
+            ));
+            for n in roots {
+                self.node(&n, DMat4::IDENTITY, 0)?;
+            }
+            return Ok(());
+        }
+        if doc.meshes().len() == 0 {
+            return Err(VoxkitError::invalid(format!(
+                "{name}: the file has no scene and no meshes: nothing to load"
+            )));
+        }
+        self.summary.warnings.push(format!(
+            "the file has no scene and no nodes: read each of its {} mesh{} once, untransformed",
+            doc.meshes().len(),
+            if doc.meshes().len() == 1 { "" } else { "es" }
+        ));
+        for mesh in doc.meshes() {
+            for prim in mesh.primitives() {
+                self.primitive(&prim, &DMat4::IDENTITY, mesh.index(), None)?;
+            }
         }
         Ok(())
     }
@@ -153,24 +430,34 @@ impl Collect<'_> {
         prim: &gltf::Primitive,
         world: &DMat4,
         mesh: usize,
-        node: usize,
+        node: Option<usize>,
     ) -> Result<()> {
-        let what = format!(
-            "{}: mesh {mesh} primitive {} (node {node})",
-            self.name,
-            prim.index()
-        );
+        let what = match node {
+            Some(n) => format!(
+                "{}: mesh {mesh} primitive {} (node {n})",
+                self.name,
+                prim.index()
+            ),
+            None => format!("{}: mesh {mesh} primitive {}", self.name, prim.index()),
+        };
         let pos_acc = prim
             .get(&gltf::Semantic::Positions)
             .ok_or_else(|| VoxkitError::invalid(format!("{what}: no POSITION attribute")))?;
-        if pos_acc.data_type() != gltf::accessor::DataType::F32
-            || pos_acc.dimensions() != gltf::accessor::Dimensions::Vec3
         {
-            return Err(VoxkitError::invalid(format!(
-                "{what}: POSITION must be float VEC3"
-            )));
+            use gltf::accessor::DataType::*;
+            if !matches!(pos_acc.data_type(), F32 | I8 | U8 | I16 | U16)
+                || pos_acc.dimensions() != gltf::accessor::Dimensions::Vec3
+            {
+                return Err(VoxkitError::invalid(format!(
+                    "{what}: POSITION accessor {} is {:?} {:?}; positions are VEC3 of float, or of \
+                     (unsigned) byte or short (KHR_mesh_quantization)",
+                    pos_acc.index(),
+                    pos_acc.dimensions(),
+                    pos_acc.data_type()
+                )));
+            }
         }
-        check_accessor(&pos_acc, self.buffers, &what)?;
+        self.check_accessor(&pos_acc, &what)?;
         let idx_acc = prim.indices();
         if let Some(a) = &idx_acc {
             use gltf::accessor::DataType::*;
@@ -181,25 +468,26 @@ impl Collect<'_> {
                     "{what}: indices must be unsigned integer scalars"
                 )));
             }
-            check_accessor(a, self.buffers, &what)?;
+            self.check_accessor(a, &what)?;
         }
-        let buffers = self.buffers;
-        let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-        let raw: Vec<[f32; 3]> = contain(self.name, "gltf", || {
-            reader.read_positions().map(|it| it.collect::<Vec<_>>())
-        })?
-        .ok_or_else(|| VoxkitError::invalid(format!("{what}: unreadable POSITION")))?;
-        let local: Vec<DVec3> = raw
+        let local: Vec<DVec3> = self
+            .read_positions(&pos_acc, &what)?
             .into_iter()
-            .map(|p| world.transform_point3(DVec3::from_array(p.map(f64::from))))
+            .map(|p| world.transform_point3(p))
             .collect();
         let n = local.len();
-        let indices: Vec<u32> = match contain(self.name, "gltf", || {
-            reader
-                .read_indices()
-                .map(|ix| ix.into_u32().collect::<Vec<_>>())
-        })? {
-            Some(ix) => ix,
+        let indices: Vec<u32> = match idx_acc {
+            Some(a) if a.count() == 0 => Vec::new(),
+            Some(_) => {
+                let buffers = self.buffers;
+                let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+                contain(self.name, "gltf", || {
+                    reader
+                        .read_indices()
+                        .map(|ix| ix.into_u32().collect::<Vec<_>>())
+                })?
+                .ok_or_else(|| VoxkitError::invalid(format!("{what}: unreadable indices")))?
+            }
             None => (0..n as u32).collect(),
         };
         if let Some((k, &i)) = indices.iter().enumerate().find(|&(_, &i)| i as usize >= n) {
@@ -266,44 +554,176 @@ impl Collect<'_> {
         self.positions.extend(local);
         Ok(())
     }
-}
 
-/// Checks that every byte an accessor reads lies inside its view and buffer.
-fn check_accessor(a: &gltf::Accessor, buffers: &[gltf::buffer::Data], what: &str) -> Result<()> {
-    let err = |msg: String| VoxkitError::invalid(format!("{what}: accessor {}: {msg}", a.index()));
-    if a.sparse().is_some() {
-        return Err(VoxkitError::Unsupported(format!(
-            "{what}: accessor {} is sparse",
-            a.index()
-        )));
-    }
-    let view = a
-        .view()
-        .ok_or_else(|| err("has no buffer view".to_string()))?;
-    let data = buffers
-        .get(view.buffer().index())
-        .ok_or_else(|| err(format!("buffer {} is missing", view.buffer().index())))?;
-    let view_end = view.offset() as u128 + view.length() as u128;
-    if view_end > data.len() as u128 {
-        return Err(err(format!(
-            "buffer view {} ends at byte {view_end}, past the {} bytes of buffer {}",
-            view.index(),
-            data.len(),
-            view.buffer().index()
-        )));
-    }
-    let size = a.size() as u128;
-    let stride = view.stride().map_or(size, |s| s as u128);
-    if a.count() > 0 {
-        let last = a.offset() as u128 + (a.count() as u128 - 1) * stride + size;
-        if last > view.length() as u128 {
-            return Err(err(format!(
-                "{} elements need {last} bytes, buffer view {} has {}",
-                a.count(),
-                view.index(),
-                view.length()
+    /// A (checked) POSITION accessor's values in f64, dequantized: float
+    /// as is; integer components as integers, or, normalized, by the glTF
+    /// spec's formulas (`c / (2^n - 1)` unsigned, `max(c / (2^(n-1) - 1),
+    /// -1)` signed). Dense and sparse accessors both go through the `gltf`
+    /// crate's typed iterator.
+    fn read_positions(&self, a: &gltf::Accessor, what: &str) -> Result<Vec<DVec3>> {
+        use gltf::accessor::{DataType, Iter};
+        if a.count() == 0 {
+            return Ok(Vec::new());
+        }
+        let buffers = self.buffers;
+        let norm = a.normalized();
+        fn read<T>(
+            a: &gltf::Accessor,
+            buffers: &[gltf::buffer::Data],
+            scale: Option<f64>,
+        ) -> Option<Vec<DVec3>>
+        where
+            T: gltf::accessor::Item + Copy + Into<f64>,
+        {
+            let get = |b: gltf::Buffer| buffers.get(b.index()).map(|d| &d.0[..]);
+            let it = Iter::<[T; 3]>::new(a.clone(), get)?;
+            Some(
+                it.map(|p| {
+                    let v = DVec3::from_array(p.map(Into::into));
+                    match scale {
+                        Some(s) => (v / s).max(DVec3::NEG_ONE),
+                        None => v,
+                    }
+                })
+                .collect(),
+            )
+        }
+        let out = contain(self.name, "gltf", || {
+            let s = |max: f64| norm.then_some(max);
+            match a.data_type() {
+                DataType::F32 => read::<f32>(a, buffers, None),
+                DataType::I8 => read::<i8>(a, buffers, s(127.0)),
+                DataType::U8 => read::<u8>(a, buffers, s(255.0)),
+                DataType::I16 => read::<i16>(a, buffers, s(32767.0)),
+                DataType::U16 => read::<u16>(a, buffers, s(65535.0)),
+                DataType::U32 => None,
+            }
+        })?;
+        let out = out.ok_or_else(|| {
+            VoxkitError::invalid(format!(
+                "{what}: accessor {}: unreadable POSITION",
+                a.index()
+            ))
+        })?;
+        if out.len() != a.count() {
+            return Err(VoxkitError::invalid(format!(
+                "{what}: accessor {}: read {} positions of {}",
+                a.index(),
+                out.len(),
+                a.count()
             )));
         }
+        Ok(out)
     }
-    Ok(())
+
+    /// Checks that every byte an accessor reads lies inside its views and
+    /// buffers, sparse parts included, and that sparse indices increase
+    /// strictly below the count (the crate's iterator would silently skip
+    /// others).
+    fn check_accessor(&self, a: &gltf::Accessor, what: &str) -> Result<()> {
+        let err =
+            |msg: String| VoxkitError::invalid(format!("{what}: accessor {}: {msg}", a.index()));
+        let size = a.size() as u128;
+        match a.view() {
+            Some(view) => self.check_view(&view, a.offset(), a.count(), size, what, a.index())?,
+            None if a.sparse().is_none() => {
+                return Err(err("has no buffer view and is not sparse".to_string()));
+            }
+            None => {}
+        }
+        let Some(sp) = a.sparse() else {
+            return Ok(());
+        };
+        let n = sp.count();
+        if n == 0 || n > a.count() {
+            return Err(err(format!(
+                "sparse count {n} outside 1..={} (the accessor's count)",
+                a.count()
+            )));
+        }
+        let iv = sp.indices().view();
+        let isize = sp.indices().index_type().size();
+        self.check_view(
+            &iv,
+            sp.indices().offset(),
+            n,
+            isize as u128,
+            what,
+            a.index(),
+        )?;
+        let vv = sp.values().view();
+        self.check_view(&vv, sp.values().offset(), n, size, what, a.index())?;
+        // Indices: strictly increasing, below the count.
+        let data = &self.buffers[iv.buffer().index()].0;
+        let stride = iv.stride().unwrap_or(isize);
+        let start = iv.offset() + sp.indices().offset();
+        let mut prev: Option<u64> = None;
+        for k in 0..n {
+            let p = start + k * stride;
+            let b = &data[p..p + isize];
+            let i = match isize {
+                1 => u64::from(b[0]),
+                2 => u64::from(u16::from_le_bytes([b[0], b[1]])),
+                _ => u64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+            };
+            if i >= a.count() as u64 || prev.is_some_and(|q| i <= q) {
+                return Err(err(format!(
+                    "sparse index {k} is {i}; sparse indices must increase strictly and stay below \
+                     the count {}",
+                    a.count()
+                )));
+            }
+            prev = Some(i);
+        }
+        Ok(())
+    }
+
+    /// Checks that `count` elements of `size` bytes from `offset` in `view`
+    /// (its stride, or packed) lie inside the view, and the view inside its
+    /// buffer (a dataless meshopt fallback is refused here, where it is
+    /// read).
+    fn check_view(
+        &self,
+        view: &gltf::buffer::View,
+        offset: usize,
+        count: usize,
+        size: u128,
+        what: &str,
+        accessor: usize,
+    ) -> Result<()> {
+        let err = |msg: String| VoxkitError::invalid(format!("{what}: accessor {accessor}: {msg}"));
+        let bi = view.buffer().index();
+        if self.dataless.contains(&bi) {
+            return Err(VoxkitError::Unsupported(format!(
+                "{what}: accessor {accessor}: buffer view {} is meshopt-compressed and its fallback \
+                 buffer {bi} has no data; voxkit does not decode EXT_meshopt_compression: re-export \
+                 without it, or with uncompressed fallback data (gltfpack -cf)",
+                view.index()
+            )));
+        }
+        let data = self
+            .buffers
+            .get(bi)
+            .ok_or_else(|| err(format!("buffer {bi} is missing")))?;
+        let view_end = view.offset() as u128 + view.length() as u128;
+        if view_end > data.len() as u128 {
+            return Err(err(format!(
+                "buffer view {} ends at byte {view_end}, past the {} bytes of buffer {bi}",
+                view.index(),
+                data.len(),
+            )));
+        }
+        let stride = view.stride().map_or(size, |s| s as u128);
+        if count > 0 {
+            let last = offset as u128 + (count as u128 - 1) * stride + size;
+            if last > view.length() as u128 {
+                return Err(err(format!(
+                    "{count} elements need {last} bytes, buffer view {} has {}",
+                    view.index(),
+                    view.length()
+                )));
+            }
+        }
+        Ok(())
+    }
 }

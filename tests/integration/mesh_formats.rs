@@ -803,7 +803,7 @@ proptest! {
 // ---------------------------------------------------------------- panic containment
 
 /// A GLB (version 2) from a JSON document and an optional binary chunk.
-fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+pub(crate) fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
     let mut j = json.as_bytes().to_vec();
     while !j.len().is_multiple_of(4) {
         j.push(b' ');

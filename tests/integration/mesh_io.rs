@@ -459,7 +459,7 @@ fn bad_gltf_files_give_typed_errors() {
         "empty.gltf",
         br#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[]}]}"#,
     );
-    assert!(invalid_msg(Mesh::load(&p)).contains("empty mesh"));
+    assert!(invalid_msg(Mesh::load(&p)).contains("scene 0 is empty"));
     // Not JSON at all / truncated JSON.
     let full = std::fs::read(data("gltf/BoxTextured/BoxTextured.gltf")).unwrap();
     let p = write("cut.gltf", &full[..full.len() / 2]);
