@@ -13,7 +13,8 @@
 //! per axis (origin = world min corner of voxel 0).
 //!
 //! Prints one line of JSON: `mesh`, `voxels_file`, `voxels`, `dims`,
-//! `origin`, `voxel_size` (of the widened frame), `measure_ms`,
+//! `origin`, `voxel_size` (of the widened frame), `warnings` (the mesh
+//! loader's, also printed to stderr), `measure_ms`,
 //! `peak_rss_mib` and the measures of `voxkit voxelize --measure`.
 
 use std::io::Write;
@@ -67,6 +68,7 @@ fn read_index_list(bytes: &[u8]) -> Option<Vec<[i64; 3]>> {
 pub fn run(args: MeasureArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let limit = MemoryLimit::new(args.max_memory.saturating_mul(1 << 20));
     let mesh = Mesh::load(&args.mesh)?;
+    super::print_warnings(&args.mesh, &mesh.summary.warnings);
     let path = &args.voxels;
     let is_npy = path
         .extension()
@@ -109,6 +111,7 @@ pub fn run(args: MeasureArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "dims": frame.dims,
         "origin": frame.origin.to_array(),
         "voxel_size": frame.voxel_size,
+        "warnings": mesh.summary.warnings,
     });
     let obj = j.as_object_mut().expect("json! of an object literal");
     insert_measures(obj, &m, measure_ms);

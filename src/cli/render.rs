@@ -8,7 +8,8 @@
 //! `voxels_visited`, `bricks_skipped`, `load_ms` (reading, and voxelizing a
 //! mesh), `prepare_ms` (render structures), `render_ms` (per frame; the
 //! median over `--turntable` frames and `--reps` repetitions), `frames`, `memory_bytes` (render structures
-//! plus image buffers), `peak_rss_mib` and, with `--measure`, the error
+//! plus image buffers), `warnings` (a mesh loader's, also printed to stderr;
+//! empty for other inputs), `peak_rss_mib` and, with `--measure`, the error
 //! measures (`differing_pixels` against the 6-ray and, for meshes,
 //! `mesh_depth_mean`, `mesh_depth_max`, `silhouette_disagree`).
 
@@ -230,6 +231,7 @@ fn load(args: &RenderArgs, limit: MemoryLimit) -> Result<Input, CliError> {
     let named = |e: crate::VoxkitError| CliError::bad_input(format!("{}: {e}", path.display()));
     if is_mesh(path) {
         let mesh = Mesh::load(path)?;
+        super::print_warnings(path, &mesh.summary.warnings);
         let mut opts = VoxelizeOptions::new(args.resolution, args.mode.into());
         opts.limit = limit;
         let v = voxelize_mesh(&mesh, &opts)?;
@@ -536,6 +538,11 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     });
     let obj = j.as_object_mut().expect("json! of an object literal");
     obj.extend(info);
+    let warnings = match &input {
+        Input::Grid(scene) => scene.mesh.as_ref().map(|m| m.summary.warnings.clone()),
+        _ => None,
+    };
+    obj.insert("warnings".into(), warnings.unwrap_or_default().into());
     if args.measure {
         let t = Instant::now();
         let six = RenderOptions {

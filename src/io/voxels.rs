@@ -105,6 +105,10 @@ pub fn write_voxels_limited(
 /// file.
 pub fn read_voxels(path: &Path, limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)> {
     let format = VoxelFormat::from_path(path)?;
+    if format == VoxelFormat::Nrrd {
+        // Through the volume reader, which opens detached data itself.
+        return super::nrrd::read_path(path, limit);
+    }
     let io_err = |source| VoxkitError::Io {
         path: path.to_path_buf(),
         source,
@@ -116,7 +120,7 @@ pub fn read_voxels(path: &Path, limit: MemoryLimit) -> Result<(BrickGrid, GridFr
         VoxelFormat::Binvox => super::binvox::read(&bytes, limit),
         VoxelFormat::Vox => super::vox::read(&bytes, limit),
         VoxelFormat::Npy => super::npy::read(&bytes, limit),
-        VoxelFormat::Nrrd => super::nrrd::read(&bytes, limit),
+        VoxelFormat::Nrrd => unreachable!("read above"),
     };
     result.map_err(|e| match e {
         VoxkitError::Invalid(m) => VoxkitError::Invalid(format!("{}: {m}", path.display())),
