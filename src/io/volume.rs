@@ -1769,7 +1769,7 @@ mod tests {
             v,
             vec![Some(DVec3::X), None, Some(DVec3::new(0.5, 2.0, -1e3))]
         );
-        assert!(nrrd_vectors("(1,0)").is_err());
+        assert!(nrrd_vectors("(1)").is_err() && nrrd_vectors("(1,0)").is_ok());
         assert!(nrrd_vectors("(1,0,0").is_err());
         assert!(nrrd_vectors("1,0,0").is_err());
         assert!(nrrd_vectors("(a,0,0)").is_err());
