@@ -64,10 +64,9 @@ pub fn run(target: &str, data: &[u8]) -> Result<()> {
     }
 }
 
-/// OBJ text (bytes that are not UTF-8 are an error, as in `obj::load`).
+/// OBJ bytes (any encoding, as in `obj::load`).
 pub fn obj(data: &[u8]) -> Result<()> {
-    let text = std::str::from_utf8(data).map_err(|_| VoxkitError::invalid("not UTF-8"))?;
-    let mesh = crate::mesh::obj::parse_str(text, "fuzz.obj")?;
+    let mesh = crate::mesh::obj::parse(data, "fuzz.obj")?;
     check_mesh(&mesh);
     Ok(())
 }

@@ -347,7 +347,15 @@ fn voxelize_one(ctx: &Context, input: &Path, output: &Path) -> Result<serde_json
     write_voxels_limited(output, &v.grid, &v.frame, ctx.args.force, ctx.opts.limit)
         .map_err(|e| e.to_string())?;
     let write_ms = ms(t);
-    let json = result_json(ctx.args, input, output, &v, load_ms, write_ms);
+    let json = result_json(
+        ctx.args,
+        input,
+        output,
+        &v,
+        load_ms,
+        write_ms,
+        &mesh.summary.warnings,
+    );
     drop(v);
     drop(held);
     Ok(json)
@@ -609,8 +617,8 @@ pub(super) fn run(args: &VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliErr
     Ok(())
 }
 
-/// Writes one entry's report: the `--json` line, and for a failure one
-/// stderr line (above the progress bar).
+/// Writes one entry's report: the `--json` line, the loader's warnings on
+/// stderr, and for a failure one stderr line (above the progress bar).
 fn emit(
     json: bool,
     entry: &Entry,
@@ -620,6 +628,20 @@ fn emit(
 ) -> std::io::Result<()> {
     let mesh = entry.input.display().to_string();
     let output = entry.output.as_ref().map(|o| o.display().to_string());
+    if let Outcome::Done(j) = &outcome {
+        let warnings: Vec<String> = j["warnings"]
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|w| w.as_str().map(String::from))
+                    .collect()
+            })
+            .unwrap_or_default();
+        match bar {
+            Some(b) => b.suspend(|| super::print_warnings(&entry.input, &warnings)),
+            None => super::print_warnings(&entry.input, &warnings),
+        }
+    }
     if let Outcome::Failed(reason) = &outcome {
         // Typed errors name the file already; the others get it prefixed.
         let line = if reason.contains(&mesh) {

@@ -131,7 +131,7 @@ pub fn run(args: CheckArgs, out: &mut dyn Write) -> Result<(), CliError> {
         Connectivity::TwentySix
     };
     let (grid, frame, warnings) = read_voxels_warned(&args.grid, limit)?;
-    super::print_grid_warnings(&args.grid, &warnings);
+    super::print_warnings(&args.grid, &warnings);
     let occ = grid.to_bit_grid(frame.dims, limit)?;
     let mut closed = occ.clone();
     for _ in 0..args.close {

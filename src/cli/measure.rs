@@ -14,7 +14,8 @@
 //!
 //! Prints one line of JSON: `mesh`, `voxels_file`, `voxels`, `dims`,
 //! `origin`, `voxel_size` (of the widened frame), `warnings` (what the
-//! voxel reader skipped; each also printed to stderr), `measure_ms`,
+//! mesh loader and the voxel reader skipped; each also printed to stderr),
+//! `measure_ms`,
 //! `peak_rss_mib` and the measures of `voxkit voxelize --measure`.
 
 use std::io::Write;
@@ -68,6 +69,7 @@ fn read_index_list(bytes: &[u8]) -> Option<Vec<[i64; 3]>> {
 pub fn run(args: MeasureArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let limit = MemoryLimit::new(args.max_memory.saturating_mul(1 << 20));
     let mesh = Mesh::load(&args.mesh)?;
+    super::print_warnings(&args.mesh, &mesh.summary.warnings);
     let path = &args.voxels;
     let is_npy = path
         .extension()
@@ -93,7 +95,7 @@ pub fn run(args: MeasureArgs, out: &mut dyn Write) -> Result<(), CliError> {
         }
         None => {
             let (grid, frame, w) = read_voxels_warned(path, limit)?;
-            super::print_grid_warnings(path, &w);
+            super::print_warnings(path, &w);
             warnings = w;
             let v = grid.iter().map(|p| p.to_array().map(i64::from)).collect();
             (
@@ -113,7 +115,7 @@ pub fn run(args: MeasureArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "dims": frame.dims,
         "origin": frame.origin.to_array(),
         "voxel_size": frame.voxel_size,
-        "warnings": warnings,
+        "warnings": mesh.summary.warnings.iter().chain(&warnings).collect::<Vec<_>>(),
     });
     let obj = j.as_object_mut().expect("json! of an object literal");
     insert_measures(obj, &m, measure_ms);

@@ -19,14 +19,6 @@ mod report;
 mod triangle;
 mod voxelize;
 
-/// Prints each of a reader's warnings about `path` to stderr as one line,
-/// `warning: PATH: …`, and returns them for a `--json` `warnings` list.
-pub(crate) fn print_grid_warnings(path: &std::path::Path, warnings: &[String]) {
-    for w in warnings {
-        eprintln!("warning: {}: {w}", path.display());
-    }
-}
-
 pub use check::{CheckArgs, dilate26, enclosed_empty};
 pub use demo::DemoArgs;
 pub use line::LineArgs;
@@ -48,7 +40,9 @@ pub struct Cli {
 /// voxkit's subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Draw lines of every kind through a grid and print speed against error.
+    /// The toolkit on a bundled mesh: draw every kind of line, voxelize the mesh in
+    /// every mode and render it with every ray kind (files in out/); print speed
+    /// against error.
     Demo(DemoArgs),
     /// Voxelize 3D segments (`x0 y0 z0 x1 y1 z1`, grid space) and print one JSON
     /// array of `[x,y,z]` voxels per segment.
@@ -95,8 +89,37 @@ impl From<crate::VoxkitError> for CliError {
 }
 
 impl From<std::io::Error> for CliError {
+    /// A closed stdout (`voxkit line ... | head`) is not a failure: the
+    /// reader has what it wanted, so the command ends quietly with exit 0, as
+    /// ripgrep does ([`CliError::is_quiet`]). Every other I/O error is bad
+    /// input.
     fn from(e: std::io::Error) -> Self {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            return CliError {
+                message: String::new(),
+                code: 0,
+            };
+        }
         CliError::bad_input(format!("i/o error: {e}"))
+    }
+}
+
+impl CliError {
+    /// Whether this is the quiet end of a closed stdout (exit 0, nothing
+    /// printed).
+    pub fn is_quiet(&self) -> bool {
+        self.code == 0 && self.message.is_empty()
+    }
+}
+
+/// Prints a reader's warnings about `path` to stderr, one line each:
+/// `warning: FILE: WHAT`. Every command that loads a mesh (or a grid whose
+/// reader reports what it ignored) calls this once per file, and lists the
+/// same strings under `warnings` in its `--json` output; see
+/// [`crate::mesh::LoadSummary::warnings`].
+pub fn print_warnings(path: &std::path::Path, warnings: &[String]) {
+    for w in warnings {
+        eprintln!("warning: {}: {w}", path.display());
     }
 }
 
@@ -130,6 +153,7 @@ pub fn main() -> i32 {
     let result = run(cli, &mut out).and_then(|()| out.flush().map_err(CliError::from));
     match result {
         Ok(()) => 0,
+        Err(e) if e.is_quiet() => 0,
         Err(e) => {
             let _ = out.flush();
             eprintln!("voxkit: {}", e.message);

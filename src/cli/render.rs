@@ -2,8 +2,8 @@
 //! voxel file, a mesh (voxelized first) or a scalar volume.
 //!
 //! `--json` prints one line with `input`, `kind` (`grid` / `volume`),
-//! `warnings` (what a voxel reader skipped, e.g. a .vox file's hidden
-//! layers; each also printed to stderr as `warning: …`),
+//! `warnings` (what the mesh loader or voxel reader skipped, e.g. a .vox
+//! file's hidden layers; each also printed to stderr as `warning: …`),
 //! `dims`, `voxels`, for grids `tiles` (the grid's tiles), `stored_bricks`
 //! (bricks with flags of their own) and `full_bricks` (bricks sharing the
 //! full slot), `ray`, `skip`, `size`, `rays`, `hits`,
@@ -236,6 +236,8 @@ fn load(
     let named = |e: crate::VoxkitError| CliError::bad_input(format!("{}: {e}", path.display()));
     if is_mesh(path) {
         let mesh = Mesh::load(path)?;
+        super::print_warnings(path, &mesh.summary.warnings);
+        warnings.extend(mesh.summary.warnings.iter().cloned());
         let mut opts = VoxelizeOptions::new(args.resolution, args.mode.into());
         opts.limit = limit;
         let v = voxelize_mesh(&mesh, &opts)?;
@@ -259,7 +261,7 @@ fn load(
             let bytes = std::fs::read(path)
                 .map_err(|e| CliError::bad_input(format!("{}: {e}", path.display())))?;
             let vox = crate::io::vox::read_colored(&bytes, limit).map_err(named)?;
-            super::print_grid_warnings(path, &vox.warnings);
+            super::print_warnings(path, &vox.warnings);
             warnings.extend(vox.warnings);
             let mut scene = Scene::from_frame(vox.grid, &vox.frame, SceneAxes::Z_UP)?;
             scene.colors = Some(vox.colors);
@@ -267,7 +269,7 @@ fn load(
         }
         "binvox" => {
             let (grid, frame, w) = crate::io::read_voxels_warned(path, limit)?;
-            super::print_grid_warnings(path, &w);
+            super::print_warnings(path, &w);
             warnings.extend(w);
             Ok(Input::Grid(Box::new(Scene::from_frame(
                 grid,

@@ -18,7 +18,9 @@
 //! corner), `snap`, `kahan_kelsen`, `dims`, `triangles`, `skipped_triangles`, `segments`, `voxels`,
 //! `bricks`, `estimated_mib`, `load_ms`, `quantize_ms`, `kernel_ms`,
 //! `polyline_ms`, `voxelize_ms` (the
-//! whole voxelization, quantization included), `write_ms`, `peak_rss_mib`
+//! whole voxelization, quantization included), `write_ms`, `warnings` (what
+//! the mesh loader ignored, also printed to stderr as `warning: FILE: ...`),
+//! `peak_rss_mib`
 //! (VmHWM of `/proc/self/status`, `null` where unavailable) and, with
 //! `--measure`, `measure_ms`, `reference_voxels`, `missing`, `extra`,
 //! `max_distance`, `mean_distance`, `far_voxels`, `closed`, `tunnel6`,
@@ -222,7 +224,7 @@ pub(super) fn voxelize_options(args: &VoxelizeArgs) -> Result<VoxelizeOptions, C
 }
 
 /// The `--json` keys of one voxelized mesh, without the `--measure` keys and
-/// `peak_rss_mib` (see the module docs).
+/// `peak_rss_mib` (see the module docs); `warnings` are the loader's.
 pub(super) fn result_json(
     args: &VoxelizeArgs,
     mesh: &Path,
@@ -230,6 +232,7 @@ pub(super) fn result_json(
     v: &Voxelization,
     load_ms: f64,
     write_ms: f64,
+    warnings: &[String],
 ) -> serde_json::Value {
     let s = &v.stats;
     let mut j = serde_json::json!({
@@ -254,6 +257,7 @@ pub(super) fn result_json(
         "polyline_ms": s.polyline_ms,
         "voxelize_ms": s.total_ms,
         "write_ms": write_ms,
+        "warnings": warnings,
     });
     if let Some(solid) = &s.solid {
         let obj = j.as_object_mut().expect("json! of an object literal");
@@ -292,6 +296,7 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let t = Instant::now();
     let mesh = Mesh::load(mesh_path)?;
     let load_ms = ms(t);
+    super::print_warnings(mesh_path, &mesh.summary.warnings);
 
     let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
         let b = indicatif::ProgressBar::new(4);
@@ -340,7 +345,15 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
     }
     written?;
     let s = &v.stats;
-    let mut j = result_json(&args, mesh_path, &args.output, &v, load_ms, write_ms);
+    let mut j = result_json(
+        &args,
+        mesh_path,
+        &args.output,
+        &v,
+        load_ms,
+        write_ms,
+        &mesh.summary.warnings,
+    );
     if let Some((m, measure_ms)) = measured {
         let m = m?;
         insert_measures(

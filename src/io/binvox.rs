@@ -17,6 +17,9 @@
 //!   `h` up to one rounding).
 //! - The reader accepts non-cubic `dim a b c` as well, taking the three
 //!   numbers as the extents of the data order (x, z, y) as `binvox_rw` does.
+//! - Header lines after the magic that start with `#` are comments and
+//!   skipped (some writers put a generator note there); blank lines and
+//!   `\r\n` line ends are accepted too.
 //! - Coordinates are written with Rust's shortest round-trip formatting, so
 //!   `translate` reads back bit-exactly.
 
@@ -179,6 +182,9 @@ pub fn read(bytes: &[u8], limit: MemoryLimit) -> Result<(BrickGrid, GridFrame)> 
     let (mut dim, mut translate, mut scale) = (None, None, None);
     loop {
         let line = next_line()?;
+        if line.starts_with('#') {
+            continue; // a comment line, as some writers emit after the magic
+        }
         let mut words = line.split_whitespace();
         let key = words.next();
         let nums: Vec<&str> = words.collect();

@@ -4,15 +4,19 @@
 //! file's element type.
 //!
 //! What is accepted:
-//! - **NRRD** `NRRD0001`–`NRRD0005`, `dimension: 3`, every NRRD spelling of
+//! - **NRRD** `NRRD0001`–`NRRD0005`, `dimension: 3`; `dimension: 2` (an
+//!   image, read as a one-voxel-thick volume whose third axis is normal to
+//!   the image, of the mean in-plane spacing); `dimension` 4 and more when
+//!   the extra axes have size 1 (squeezed, non-spatial `none` axes first);
+//!   every NRRD spelling of
 //!   the 8/16/32-bit integer types, `float` and `double` (64-bit integers
 //!   and `block` are [`VoxkitError::Unsupported`]); encodings `raw`,
-//!   `gzip`/`gz` and `ascii`/`text`/`txt` (`hex`, `bzip2`, `zrl` are
-//!   unsupported); `endian` (required for multi-byte binary data);
+//!   `gzip`/`gz`, `bzip2`/`bz2` (pure-Rust decoder) and `ascii`/`text`/`txt`
+//!   (`hex`, `zrl` are unsupported); `endian` (required for multi-byte binary data);
 //!   `space directions` (any invertible 3×3, `none` entries unsupported) or
 //!   `spacings`, and `space origin`; `space`/`space dimension` for 3-D
 //!   spaces; `line skip`; `byte skip` (≥ 0, or −1 = "the data ends the
-//!   file", raw only; for gzip it skips decompressed bytes, as the NRRD
+//!   file", raw only; for gzip and bzip2 it skips decompressed bytes, as the NRRD
 //!   format says); `data file` as one file, `LIST [subdim]` or
 //!   `fmt min max step [subdim]` (`%d`-style, e.g. `slice%03d.raw 1 93 1`).
 //!   Relative data paths are relative to the header's directory.
@@ -404,6 +408,7 @@ fn is_list(value: &str) -> bool {
 enum Encoding {
     Raw,
     Gzip,
+    Bzip2,
     Zlib,
     Ascii,
 }
@@ -413,6 +418,7 @@ impl Encoding {
         match self {
             Encoding::Raw => "raw",
             Encoding::Gzip => "gzip",
+            Encoding::Bzip2 => "bzip2",
             Encoding::Zlib => "zlib",
             Encoding::Ascii => "ascii",
         }
@@ -691,7 +697,9 @@ fn read_piece<T: Sample>(
         .ok_or_else(|| invalid("data size overflows"))?;
     match s.encoding {
         Encoding::Raw => read_raw(path, r, pos, len, need, s, count, out),
-        Encoding::Gzip | Encoding::Zlib => read_compressed(path, r, pos, len, need, s, count, out),
+        Encoding::Gzip | Encoding::Bzip2 | Encoding::Zlib => {
+            read_compressed(path, r, pos, len, need, s, count, out)
+        }
         Encoding::Ascii => {
             if s.file_skip != Skip::Bytes(0) {
                 return Err(unsupported("byte skip with ascii data"));
@@ -763,6 +771,7 @@ fn read_compressed<T: Sample>(
     r.seek(SeekFrom::Start(start)).map_err(io_at(path))?;
     let mut dec: Box<dyn Read> = match s.encoding {
         Encoding::Gzip => Box::new(MultiGzDecoder::new(r)),
+        Encoding::Bzip2 => Box::new(bzip2::read::MultiBzDecoder::new(r)),
         _ => Box::new(ZlibDecoder::new(r)),
     };
     let what = format!("{} data", s.encoding.name());
@@ -807,9 +816,11 @@ fn size_error(path: &Path, what: &str, have: u64, need: u64, ty: ScalarType) -> 
 /// I/O failure stays I/O.
 fn stream_error(path: &Path, what: &str, e: io::Error) -> VoxkitError {
     match e.kind() {
-        io::ErrorKind::InvalidData | io::ErrorKind::InvalidInput | io::ErrorKind::UnexpectedEof => {
-            invalid(format!("{}: corrupt {what}: {e}", path.display()))
-        }
+        // Decoders report bad streams as these (bzip2 also as Other).
+        io::ErrorKind::InvalidData
+        | io::ErrorKind::InvalidInput
+        | io::ErrorKind::UnexpectedEof
+        | io::ErrorKind::Other => invalid(format!("{}: corrupt {what}: {e}", path.display())),
         _ => io_at(path)(e),
     }
 }
@@ -1043,8 +1054,11 @@ fn nrrd_encoding(s: &str) -> Result<Encoding> {
     match s.to_lowercase().as_str() {
         "raw" => Ok(Encoding::Raw),
         "gzip" | "gz" => Ok(Encoding::Gzip),
+        "bzip2" | "bz2" => Ok(Encoding::Bzip2),
         "ascii" | "text" | "txt" => Ok(Encoding::Ascii),
-        "hex" | "bzip2" | "bz2" | "zrl" => Err(unsupported(format!("NRRD encoding {s:?}"))),
+        "hex" | "zrl" => Err(unsupported(format!(
+            "NRRD encoding {s:?} (raw, gzip, bzip2 and ascii are read)"
+        ))),
         _ => Err(invalid(format!("unknown NRRD encoding {s:?}"))),
     }
 }
@@ -1067,12 +1081,17 @@ fn nrrd_vectors(s: &str) -> Result<Vec<Option<DVec3>>> {
             .map(|x| x.trim().parse().ok())
             .collect::<Option<_>>()
             .ok_or_else(bad)?;
-        let [x, y, z] = c[..] else {
-            return Err(unsupported(format!(
-                "vector {:?} has {} components; only 3-D spaces are supported",
-                &rest[..close + 2],
-                c.len()
-            )));
+        // A 2-D space's vectors lie in the z = 0 plane.
+        let [x, y, z] = match c[..] {
+            [x, y] => [x, y, 0.0],
+            [x, y, z] => [x, y, z],
+            _ => {
+                return Err(unsupported(format!(
+                    "vector {:?} has {} components; only 2-D and 3-D spaces are supported",
+                    &rest[..close + 2],
+                    c.len()
+                )));
+            }
         };
         out.push(Some(DVec3::new(x, y, z)));
         rest = inner[close + 1..].trim_start();
@@ -1093,9 +1112,101 @@ const NRRD_SPACES: &[&str] = &[
     "3d-left-handed",
 ];
 
-fn nrrd_frame(f: &Fields) -> Result<VolumeFrame> {
+/// Which of an N-D NRRD's axes make the 3-D volume. A 2-D image is read as
+/// a one-voxel-thick volume (a third axis of size 1 is added); in more than
+/// three dimensions, axes of size 1 are squeezed out (those whose space
+/// direction is `none`, i.e. not spatial, first) until three are left.
+/// Anything else is refused in one line.
+struct NrrdShape {
+    /// Every axis's size, in the file's order.
+    sizes: Vec<u64>,
+    /// The axes kept, in order (two for a 2-D image).
+    keep: Vec<usize>,
+}
+
+impl NrrdShape {
+    fn new(f: &Fields, dimension: i64) -> Result<NrrdShape> {
+        let s = f.require("sizes", "sizes")?;
+        let sizes: Vec<u64> = s
+            .split_whitespace()
+            .map(|t| t.parse::<i64>().ok().filter(|&v| v > 0).map(|v| v as u64))
+            .collect::<Option<_>>()
+            .ok_or_else(|| invalid(format!("sizes {s:?} must be positive integers")))?;
+        if sizes.len() as i64 != dimension {
+            return Err(invalid(format!(
+                "sizes {s:?} has {} numbers, dimension is {dimension}",
+                sizes.len()
+            )));
+        }
+        let refuse = || {
+            unsupported(format!(
+                "dimension {dimension} with sizes {s}: voxkit reads 2-D images, 3-D volumes, \
+                 and 4-D or higher volumes whose extra axes have size 1"
+            ))
+        };
+        let keep: Vec<usize> = match dimension {
+            2 | 3 => (0..dimension as usize).collect(),
+            4..=16 => {
+                // Non-spatial size-1 axes go first, then any size-1 axis.
+                let spatial: Vec<bool> = match f.get(&["spacedirections"]) {
+                    Some(d) => nrrd_vectors(d)?.iter().map(Option::is_some).collect(),
+                    None => vec![true; sizes.len()],
+                };
+                let mut drop: Vec<usize> = (0..sizes.len()).filter(|&a| sizes[a] == 1).collect();
+                drop.sort_by_key(|&a| spatial.get(a).copied().unwrap_or(true));
+                let extra = sizes.len() - 3;
+                if drop.len() < extra {
+                    return Err(refuse());
+                }
+                drop.truncate(extra);
+                (0..sizes.len()).filter(|a| !drop.contains(a)).collect()
+            }
+            _ => return Err(refuse()),
+        };
+        Ok(NrrdShape { sizes, keep })
+    }
+
+    /// The volume's three sizes (a 2-D image's third is 1).
+    fn sizes3(&self) -> [u64; 3] {
+        let mut out = [1u64; 3];
+        for (o, &a) in out.iter_mut().zip(&self.keep) {
+            *o = self.sizes[a];
+        }
+        out
+    }
+
+    /// The kept entries of a per-axis list that has one entry per axis.
+    fn pick<T: Copy>(&self, what: &str, all: &[T]) -> Result<Vec<T>> {
+        if all.len() != self.sizes.len() {
+            return Err(invalid(format!(
+                "{what} has {} entries, dimension is {}",
+                all.len(),
+                self.sizes.len()
+            )));
+        }
+        Ok(self.keep.iter().map(|&a| all[a]).collect())
+    }
+}
+
+/// A 2-D image's two axis vectors and a third one, normal to them, of their
+/// mean length: the image is one voxel thick.
+fn complete_axes(a: DVec3, b: DVec3) -> Result<DMat3> {
+    let n = a.cross(b);
+    if n == DVec3::ZERO || !n.is_finite() {
+        return Err(invalid(
+            "the two space directions of the 2-D image are parallel",
+        ));
+    }
+    Ok(DMat3::from_cols(
+        a,
+        b,
+        n.normalize() * (a.length() + b.length()) / 2.0,
+    ))
+}
+
+fn nrrd_frame(f: &Fields, shape: &NrrdShape) -> Result<VolumeFrame> {
     if let Some(d) = f.get(&["spacedimension"])
-        && d.trim() != "3"
+        && !matches!(d.trim(), "2" | "3")
     {
         return Err(unsupported(format!("space dimension {d}")));
     }
@@ -1117,18 +1228,32 @@ fn nrrd_frame(f: &Fields) -> Result<VolumeFrame> {
         },
     };
     let axes = if let Some(s) = f.get(&["spacedirections"]) {
-        match nrrd_vectors(s)?.as_slice() {
+        let kept = shape.pick("space directions", &nrrd_vectors(s)?)?;
+        match kept.as_slice() {
             [Some(a), Some(b), Some(c)] => DMat3::from_cols(*a, *b, *c),
-            [_, _, _] => {
+            [Some(a), Some(b)] => complete_axes(*a, *b)?,
+            _ => {
                 return Err(unsupported(format!(
-                    "space directions {s:?} with a `none` axis"
+                    "space directions {s:?} with a `none` axis of size > 1"
                 )));
             }
-            _ => return Err(invalid(format!("space directions {s:?} are not 3 vectors"))),
         }
     } else if let Some(s) = f.get(&["spacings"]) {
-        let v = finite("spacings", numbers("spacings", s)?)?;
-        DMat3::from_diagonal(DVec3::from_array(v))
+        // `nan` marks a non-spatial axis; only kept axes must be finite.
+        let all: Vec<f64> = s
+            .split_whitespace()
+            .map(|t| t.parse().ok())
+            .collect::<Option<_>>()
+            .ok_or_else(|| invalid(format!("spacings: {s:?} is not a list of numbers")))?;
+        let v = shape.pick("spacings", &all)?;
+        if !v.iter().all(|x| x.is_finite()) {
+            return Err(invalid(format!("spacings {s:?} is not finite")));
+        }
+        match v[..] {
+            [a, b, c] => DMat3::from_diagonal(DVec3::new(a, b, c)),
+            [a, b] => complete_axes(DVec3::X * a, DVec3::Y * b)?,
+            _ => unreachable!("a shape keeps two or three axes"),
+        }
     } else {
         DMat3::IDENTITY
     };
@@ -1147,12 +1272,8 @@ fn read_nrrd(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVol
     let f = nrrd_fields(&read_head(files, path)?)?;
     let ty = nrrd_type(f.require("type", "type")?)?;
     let dimension = parse_int("dimension", f.require("dimension", "dimension")?)?;
-    if dimension != 3 {
-        return Err(unsupported(format!(
-            "dimension {dimension}; only 3-D volumes are read"
-        )));
-    }
-    let dims = checked_dims(sizes3("sizes", f.require("sizes", "sizes")?)?, ty, limit)?;
+    let shape = NrrdShape::new(&f, dimension)?;
+    let dims = checked_dims(shape.sizes3(), ty, limit)?;
     let encoding = nrrd_encoding(f.require("encoding", "encoding")?)?;
     let big_endian = match f.get(&["endian"]).map(str::to_lowercase).as_deref() {
         Some("little") => false,
@@ -1173,11 +1294,11 @@ fn read_nrrd(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVol
     };
     // For compressed data NRRD skips bytes after decompression.
     let (file_skip, decoded_skip) = match (encoding, byte_skip) {
-        (Encoding::Gzip, Skip::Bytes(b)) => (Skip::Bytes(0), b),
-        (Encoding::Gzip, Skip::ToEnd) => (Skip::ToEnd, 0), // refused when read
+        (Encoding::Gzip | Encoding::Bzip2, Skip::Bytes(b)) => (Skip::Bytes(0), b),
+        (Encoding::Gzip | Encoding::Bzip2, Skip::ToEnd) => (Skip::ToEnd, 0), // refused when read
         (_, skip) => (skip, 0),
     };
-    let frame = nrrd_frame(&f)?;
+    let frame = nrrd_frame(&f, &shape)?;
     let pieces = data_pieces(path, f.get(&["datafile"]), &f.list, f.data_start, dims)?;
     let storage = Storage {
         ty,
@@ -1648,7 +1769,7 @@ mod tests {
             v,
             vec![Some(DVec3::X), None, Some(DVec3::new(0.5, 2.0, -1e3))]
         );
-        assert!(nrrd_vectors("(1,0)").is_err());
+        assert!(nrrd_vectors("(1)").is_err() && nrrd_vectors("(1,0)").is_ok());
         assert!(nrrd_vectors("(1,0,0").is_err());
         assert!(nrrd_vectors("1,0,0").is_err());
         assert!(nrrd_vectors("(a,0,0)").is_err());
@@ -1657,6 +1778,11 @@ mod tests {
     #[test]
     fn nrrd_frames() {
         let fields = |s: &str| nrrd_fields(&head(&format!("NRRD0004\n{s}\n"))).unwrap();
+        let three = NrrdShape {
+            sizes: vec![2, 2, 2],
+            keep: vec![0, 1, 2],
+        };
+        let nrrd_frame = |f: &Fields| nrrd_frame(f, &three);
         let f = nrrd_frame(&fields(
             "space: LPS\nspace directions: (0,2,0) (3,0,0) (0,0,-1)\nspace origin: (1,2,3)",
         ))
@@ -1676,7 +1802,7 @@ mod tests {
             VoxkitError::Unsupported(_)
         ));
         assert!(matches!(
-            err("space dimension: 2"),
+            err("space dimension: 4"),
             VoxkitError::Unsupported(_)
         ));
         assert!(matches!(

@@ -117,6 +117,10 @@ pub fn read_voxels_warned(
     limit: MemoryLimit,
 ) -> Result<(BrickGrid, GridFrame, Vec<String>)> {
     let format = VoxelFormat::from_path(path)?;
+    if format == VoxelFormat::Nrrd {
+        // Through the volume reader, which opens detached data itself.
+        return super::nrrd::read_path(path, limit).map(|(g, f)| (g, f, Vec::new()));
+    }
     let io_err = |source| VoxkitError::Io {
         path: path.to_path_buf(),
         source,
@@ -129,7 +133,7 @@ pub fn read_voxels_warned(
         VoxelFormat::Binvox => plain(super::binvox::read(&bytes, limit)),
         VoxelFormat::Vox => super::vox::read_warned(&bytes, limit),
         VoxelFormat::Npy => plain(super::npy::read(&bytes, limit)),
-        VoxelFormat::Nrrd => plain(super::nrrd::read(&bytes, limit)),
+        VoxelFormat::Nrrd => unreachable!("read above"),
     };
     result.map_err(|e| match e {
         VoxkitError::Invalid(m) => VoxkitError::Invalid(format!("{}: {m}", path.display())),

@@ -242,6 +242,22 @@ fn read_file(path: &Path) -> Result<Vec<u8>> {
     })
 }
 
+/// Fan-triangulates one polygon (`0, k, k+1`) into `out`: every loader's
+/// rule for faces with more than three vertices.
+pub(crate) fn fan(idx: &[u32], out: &mut Vec<[u32; 3]>) {
+    for k in 1..idx.len().saturating_sub(1) {
+        out.push([idx[0], idx[k], idx[k + 1]]);
+    }
+}
+
+/// At most 40 characters of `s` for a message, with "…" when cut.
+pub(crate) fn clip(s: &str) -> String {
+    match s.char_indices().nth(40) {
+        Some((i, _)) => format!("{}…", &s[..i]),
+        None => s.to_string(),
+    }
+}
+
 /// The lower-case extension of `path` ("" when it has none).
 fn extension_of(path: &Path) -> String {
     path.extension()

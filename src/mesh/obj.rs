@@ -1,40 +1,53 @@
-//! Wavefront OBJ input via `tobj`, plus a validating pre-pass of our own.
+//! Wavefront OBJ input: a lenient parser of our own over the file's bytes.
 //!
-//! `tobj` (built with `use_f64`, so coordinates are parsed straight to f64)
-//! triangulates the faces (fans, negative indices resolved). Two things it
-//! does not do the way a voxelizer needs, so a pre-pass over the text handles
-//! them first:
-//! - `l` records: `tobj` reads `l a b c` as a *triangle* and `l a b c d` as a
-//!   quad (it shares the face parser), and a two-vertex `l` becomes a
-//!   degenerate triangle or is ignored. The pre-pass parses every `l` as a
-//!   polyline and hides those lines from `tobj`.
-//! - Error locations: `tobj` reports "face vertex index out of bounds" with no
-//!   line. The pre-pass checks every `v` (three finite coordinates) and every
-//!   `f` / `l` index (nonzero, in range, resolved for negative values) and
-//!   names the file, line and element.
+//! A voxelizer needs positions, faces, lines and nothing else, and OBJ files
+//! in the wild are sloppy, so the parser reads exactly those records and is
+//! liberal about everything around them:
+//! - bytes, not text: a Latin-1 material or group name (or any non-UTF-8
+//!   byte outside `v`, `f`, `l` and `p` records) does not matter;
+//! - `\n` or `\r\n` line ends; a backslash at the end of a line continues the
+//!   record on the next line (the spec's line continuation); `#` starts a
+//!   comment anywhere on a line;
+//! - materials and textures are never read: `mtllib` is not opened, so a
+//!   missing or broken `.mtl` (an empty `newmtl`, say) cannot block the
+//!   geometry; `vt`, `vn` and the texture / normal parts of face indices are
+//!   skipped without being checked;
+//! - `v x y z w` divides by `w` (as tobj does); `v x y z r g b` (vertex
+//!   colours) keeps `x y z`. Colours on only some vertices, or extra values
+//!   that are neither, are one warning each in
+//!   [`super::LoadSummary::warnings`]; so are free-form records (`curv`,
+//!   `curv2`, `surf`), the only geometry this reader does not read.
 //!
-//! A missing `mtllib` is not an error: materials are not needed.
-//! `p` records are skipped and counted in [`super::LoadSummary::skipped_points`].
+//! What it does read it checks exactly, naming the file and line: every `v`
+//! has three finite coordinates; every `f` / `l` vertex index is
+//! nonzero and in range, negative (relative) indices counting back from the
+//! vertices defined so far, positive ones possibly referring forward.
+//! Faces are fan-triangulated `0, k, k+1`; each `l` record is one polyline;
+//! `p` records are counted in [`super::LoadSummary::skipped_points`].
+//! Positions are the file's own vertices in order (unused ones included:
+//! bounds count only used ones).
+//!
+//! Files of [`PARALLEL_MIN_BYTES`] and more are parsed in parallel: a first
+//! pass counts the `v` records and lines of each chunk (cut at line ends that
+//! do not continue), so each chunk resolves relative indices and names lines
+//! exactly as a serial parse would; the results are concatenated in order.
 
-use std::collections::HashMap;
+use std::borrow::Cow;
 use std::path::Path;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::{LoadSummary, Mesh};
 use crate::error::{Result, VoxkitError};
 
-/// Loads an OBJ file. See the module docs for what is checked.
+/// Files at least this large are parsed in parallel chunks.
+pub const PARALLEL_MIN_BYTES: usize = 4 << 20;
+
+/// Loads an OBJ file. See the module docs for what is read and checked.
 pub fn load(path: &Path) -> Result<Mesh> {
     let bytes = super::read_file(path)?;
-    let name = path.display().to_string();
-    let text = String::from_utf8(bytes).map_err(|e| {
-        VoxkitError::invalid(format!(
-            "{name}: not UTF-8 text (invalid byte at offset {})",
-            e.utf8_error().valid_up_to()
-        ))
-    })?;
-    parse_str(&text, &name)
+    parse(&bytes, &path.display().to_string())
 }
 
 /// Parses OBJ text; `name` prefixes error messages.
@@ -50,208 +63,413 @@ pub fn load(path: &Path) -> Result<Mesh> {
 /// assert_eq!(line, [glam::DVec3::ZERO, glam::DVec3::new(1., 1., 0.), glam::DVec3::Y]);
 /// ```
 pub fn parse_str(text: &str, name: &str) -> Result<Mesh> {
-    let pre = prepass(text, name)?;
+    parse(text.as_bytes(), name)
+}
+
+/// Parses OBJ bytes (any encoding: only ASCII records are interpreted);
+/// `name` prefixes error messages.
+///
+/// ```
+/// // A Latin-1 material name, CRLF line ends and a continued face.
+/// let m = voxkit::mesh::obj::parse(
+///     b"usemtl caf\xe9\r\nv 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 \\\r\n 3\r\n",
+///     "latin1.obj",
+/// ).unwrap();
+/// assert_eq!(m.triangles, vec![[0, 1, 2]]);
+/// assert!(m.summary.warnings.is_empty());
+/// ```
+pub fn parse(bytes: &[u8], name: &str) -> Result<Mesh> {
+    let chunks = if bytes.len() >= PARALLEL_MIN_BYTES && rayon::current_num_threads() > 1 {
+        split_chunks(bytes, rayon::current_num_threads() * 4)
+    } else {
+        vec![bytes]
+    };
+    // Vertex and line counts before each chunk.
+    let mut starts = Vec::with_capacity(chunks.len());
+    let (mut v0, mut l0) = (0usize, 0usize);
+    for (i, c) in chunks.iter().enumerate() {
+        starts.push((v0, l0));
+        if i + 1 < chunks.len() {
+            let (v, l) = count_chunk(c);
+            v0 += v;
+            l0 += l;
+        }
+    }
+    let parts: Vec<Result<Part>> = if chunks.len() == 1 {
+        vec![parse_chunk(bytes, 0, 0, name)]
+    } else {
+        chunks
+            .par_iter()
+            .zip(starts.par_iter())
+            .map(|(c, &(v, l))| parse_chunk(c, v, l, name))
+            .collect()
+    };
+    let mut all = Part::default();
+    for part in parts {
+        all.append(part?);
+    }
+    finish(all, name)
+}
+
+/// What one chunk of the file holds. Indices are already 0-based and global.
+#[derive(Default)]
+struct Part {
+    vertices: Vec<DVec3>,
+    triangles: Vec<[u32; 3]>,
+    polylines: Vec<Vec<u32>>,
+    points: usize,
+    /// Vertices with three colour values after the coordinates.
+    coloured: usize,
+    /// Vertices with extra values that are neither `w` nor `r g b`: the
+    /// first one's line and the count.
+    odd_extras: Option<(usize, usize)>,
+    /// Free-form records (`curv`, `curv2`, `surf`): the first one's line and
+    /// the count.
+    freeform: Option<(usize, usize)>,
+    /// The largest positive index (0-based) and its line: positive indices
+    /// may refer forward, so they are checked once all vertices are known.
+    max_index: Option<(u32, usize)>,
+}
+
+impl Part {
+    fn append(&mut self, mut o: Part) {
+        if self.vertices.is_empty() {
+            std::mem::swap(&mut self.vertices, &mut o.vertices);
+        } else {
+            self.vertices.append(&mut o.vertices);
+        }
+        if self.triangles.is_empty() {
+            std::mem::swap(&mut self.triangles, &mut o.triangles);
+        } else {
+            self.triangles.append(&mut o.triangles);
+        }
+        self.polylines.append(&mut o.polylines);
+        self.points += o.points;
+        self.coloured += o.coloured;
+        self.odd_extras = merge_first(self.odd_extras, o.odd_extras);
+        self.freeform = merge_first(self.freeform, o.freeform);
+        self.max_index = match (self.max_index, o.max_index) {
+            (Some(a), Some(b)) => Some(if b.0 > a.0 { b } else { a }),
+            (a, b) => a.or(b),
+        };
+    }
+}
+
+/// Adds two (first line, count) tallies, keeping the earlier line.
+fn merge_first(a: Option<(usize, usize)>, b: Option<(usize, usize)>) -> Option<(usize, usize)> {
+    match (a, b) {
+        (Some((l, n)), Some((_, m))) => Some((l, n + m)),
+        (a, b) => a.or(b),
+    }
+}
+
+/// Tallies one more occurrence at (1-based) line `ln`.
+fn tally(t: &mut Option<(usize, usize)>, ln: usize) {
+    match t {
+        Some((_, n)) => *n += 1,
+        None => *t = Some((ln, 1)),
+    }
+}
+
+/// Checks the forward references, turns the tallies into warnings and
+/// validates through [`Mesh::from_parts_with`].
+fn finish(all: Part, name: &str) -> Result<Mesh> {
+    let n = all.vertices.len();
+    if let Some((r, ln)) = all.max_index
+        && r as usize >= n
+    {
+        return Err(VoxkitError::invalid(format!(
+            "{name}: line {ln}: vertex index {} is out of range (the file has {n} vertices)",
+            r as u64 + 1
+        )));
+    }
+    let mut warnings = Vec::new();
+    if all.coloured > 0 && all.coloured < n {
+        warnings.push(format!(
+            "vertex colours on only {} of {n} vertices ignored (colours are not used)",
+            all.coloured
+        ));
+    }
+    if let Some((ln, k)) = all.odd_extras {
+        warnings.push(format!(
+            "line {ln}: {k} vertex record(s) with extra values that are neither `w` nor `r g b`; the extra values were ignored"
+        ));
+    }
+    if let Some((ln, k)) = all.freeform {
+        warnings.push(format!(
+            "line {ln}: {k} free-form record(s) (curv, curv2, surf) ignored: only polygons, lines and points are read"
+        ));
+    }
     let mut summary = LoadSummary {
-        skipped_points: pre.points,
+        skipped_points: all.points,
+        warnings,
         ..LoadSummary::default()
     };
-
-    let filtered;
-    let tobj_input: &str = if pre.line_records.is_empty() {
-        text
-    } else {
-        // Blank the `l` lines (keeping line structure) so tobj sees only faces.
-        let mut s = String::with_capacity(text.len());
-        let mut next = pre.line_records.iter().peekable();
-        for (i, line) in text.lines().enumerate() {
-            if next.peek() == Some(&&i) {
-                next.next();
-            } else {
-                s.push_str(line);
-            }
-            s.push('\n');
-        }
-        filtered = s;
-        &filtered
-    };
-
-    let mut positions: Vec<DVec3> = Vec::new();
-    let mut triangles: Vec<[u32; 3]> = Vec::new();
-    if pre.faces > 0 {
-        let opts = tobj::LoadOptions {
-            triangulate: true,
-            single_index: false,
-            ignore_points: true,
-            ignore_lines: true,
-        };
-        let (models, _materials) = tobj::load_obj_buf(
-            &mut tobj_input.as_bytes(),
-            &opts,
-            // Materials are irrelevant; a missing library must not fail the load.
-            |_| Err(tobj::LoadError::OpenFileFailed),
-        )
-        .map_err(|e| VoxkitError::invalid(format!("{name}: {e}")))?;
-        for model in models {
-            let m = model.mesh;
-            let base = positions.len();
-            if base + m.positions.len() / 3 > u32::MAX as usize {
-                return Err(VoxkitError::Unsupported(format!(
-                    "{name}: more than 2^32 - 1 vertices"
-                )));
-            }
-            positions.extend(
-                m.positions
-                    .chunks_exact(3)
-                    .map(|c| DVec3::new(c[0], c[1], c[2])),
-            );
-            triangles.extend(
-                m.indices
-                    .chunks_exact(3)
-                    .map(|c| [c[0], c[1], c[2]].map(|i| i + base as u32)),
-            );
-        }
-    }
-
-    // Polylines refer to the file's own vertex numbering: append the vertices
-    // they use (once each) after tobj's.
-    let mut remap: HashMap<usize, u32> = HashMap::new();
-    let mut polylines = Vec::with_capacity(pre.polylines.len());
-    for line in &pre.polylines {
-        let mut out = Vec::with_capacity(line.len());
-        for &v in line {
-            let idx = *remap.entry(v).or_insert_with(|| {
-                positions.push(pre.vertices[v]);
-                (positions.len() - 1) as u32
-            });
-            out.push(idx);
-        }
-        polylines.push(out);
-    }
-    Mesh::from_parts_with(name, positions, triangles, polylines, &mut summary)
+    Mesh::from_parts_with(
+        name,
+        all.vertices,
+        all.triangles,
+        all.polylines,
+        &mut summary,
+    )
 }
 
-/// What the validating pre-pass collects.
-struct Prepass {
-    vertices: Vec<DVec3>,
-    /// Resolved 0-based vertex indices of each `l` record.
-    polylines: Vec<Vec<usize>>,
-    /// 0-based line numbers of the `l` records (ascending).
-    line_records: Vec<usize>,
-    faces: usize,
-    points: usize,
-}
-
-fn prepass(text: &str, name: &str) -> Result<Prepass> {
-    let mut pre = Prepass {
-        vertices: Vec::new(),
-        polylines: Vec::new(),
-        line_records: Vec::new(),
-        faces: 0,
-        points: 0,
-    };
-    // Positive indices may refer forward; check them once all `v` are known.
-    let mut forward: Vec<(usize, usize)> = Vec::new();
-    for (ln, line) in text.lines().enumerate() {
-        let at = |msg: String| VoxkitError::invalid(format!("{name}: line {}: {msg}", ln + 1));
-        let mut words = line.split_whitespace();
-        match words.next() {
-            Some("v") => {
-                let vals: Vec<&str> = words.collect();
-                if vals.len() < 3 {
-                    return Err(at(format!(
-                        "vertex {} needs 3 coordinates, found {}",
-                        pre.vertices.len() + 1,
-                        vals.len()
-                    )));
+/// Cuts `bytes` into about `pieces` chunks at line ends that do not continue
+/// the record (a backslash before the line end).
+fn split_chunks(bytes: &[u8], pieces: usize) -> Vec<&[u8]> {
+    let target = bytes.len().div_ceil(pieces.max(1)).max(1 << 20);
+    let mut out = Vec::new();
+    let mut start = 0;
+    while start < bytes.len() {
+        let mut cut = (start + target).min(bytes.len());
+        loop {
+            match memchr::memchr(b'\n', &bytes[cut..]) {
+                None => {
+                    cut = bytes.len();
+                    break;
                 }
+                Some(k) => {
+                    cut += k + 1;
+                    if !continues(&bytes[start..cut - 1]) {
+                        break;
+                    }
+                }
+            }
+        }
+        out.push(&bytes[start..cut]);
+        start = cut;
+    }
+    out
+}
+
+/// Whether a line (without its `\n`) ends in a continuation backslash.
+fn continues(line: &[u8]) -> bool {
+    line.trim_ascii_end().last() == Some(&b'\\')
+}
+
+/// The logical lines of a chunk: `(first physical line, 1-based, record)`,
+/// with continued lines joined by a space and comments cut off.
+struct Records<'a> {
+    rest: &'a [u8],
+    line: usize,
+}
+
+impl<'a> Iterator for Records<'a> {
+    type Item = (usize, Cow<'a, [u8]>);
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.rest.is_empty() {
+            return None;
+        }
+        let first = self.line + 1;
+        let (mut line, mut rest) = split_line(self.rest);
+        self.line += 1;
+        let mut joined: Cow<'a, [u8]> = Cow::Borrowed(line);
+        while continues(line) {
+            let owned = joined.to_mut();
+            let keep = owned.trim_ascii_end().len() - 1; // drop the backslash
+            owned.truncate(keep);
+            if rest.is_empty() {
+                break;
+            }
+            owned.push(b' ');
+            (line, rest) = split_line(rest);
+            self.line += 1;
+            owned.extend_from_slice(line);
+        }
+        self.rest = rest;
+        if let Some(h) = memchr::memchr(b'#', &joined) {
+            match &mut joined {
+                Cow::Borrowed(b) => *b = &b[..h],
+                Cow::Owned(v) => v.truncate(h),
+            }
+        }
+        Some((first, joined))
+    }
+}
+
+/// The first line of `b` (without `\n`) and what follows it.
+#[inline]
+fn split_line(b: &[u8]) -> (&[u8], &[u8]) {
+    match memchr::memchr(b'\n', b) {
+        Some(k) => (&b[..k], &b[k + 1..]),
+        None => (b, &[]),
+    }
+}
+
+/// ASCII-whitespace-separated words (space, tab, `\r`, form feed, ...).
+#[inline]
+fn words(b: &[u8]) -> impl Iterator<Item = &[u8]> {
+    b.split(|c| c.is_ascii_whitespace())
+        .filter(|w| !w.is_empty())
+}
+
+/// The record's keyword and the rest of it.
+#[inline]
+fn keyword(rec: &[u8]) -> (&[u8], &[u8]) {
+    let r = rec.trim_ascii_start();
+    let end = r
+        .iter()
+        .position(|c| c.is_ascii_whitespace())
+        .unwrap_or(r.len());
+    (&r[..end], &r[end..])
+}
+
+/// `v` records and physical lines in a chunk (the parallel parse's first
+/// pass; it classifies records exactly as [`parse_chunk`] does).
+fn count_chunk(c: &[u8]) -> (usize, usize) {
+    let mut it = Records { rest: c, line: 0 };
+    let mut v = 0;
+    for (_, rec) in &mut it {
+        if keyword(&rec).0 == b"v" {
+            v += 1;
+        }
+    }
+    (v, it.line)
+}
+
+/// Parses one chunk whose first vertex is number `v0` (0-based) and whose
+/// first line follows line `l0`.
+fn parse_chunk(c: &[u8], v0: usize, l0: usize, name: &str) -> Result<Part> {
+    let mut part = Part::default();
+    let mut idx: Vec<u32> = Vec::new();
+    for (ln, rec) in (Records { rest: c, line: l0 }) {
+        let (kw, body) = keyword(&rec);
+        match kw {
+            b"v" => {
+                let vn = v0 + part.vertices.len() + 1;
+                let at = |m: String| line_err(name, ln, format!("vertex {vn}{m}"));
+                let mut ws = words(body);
                 let mut c = [0.0f64; 3];
-                for (k, s) in vals[..3].iter().enumerate() {
-                    c[k] = s.parse::<f64>().map_err(|_| {
-                        at(format!(
-                            "vertex {}: cannot parse coordinate {s:?}",
-                            pre.vertices.len() + 1
-                        ))
-                    })?;
+                for (k, slot) in c.iter_mut().enumerate() {
+                    let w = ws
+                        .next()
+                        .ok_or_else(|| at(format!(" needs 3 coordinates, found {k}")))?;
+                    *slot = parse_f64(w)
+                        .ok_or_else(|| at(format!(": cannot parse coordinate {}", show(w))))?;
                 }
                 let mut p = DVec3::from_array(c);
-                if vals.len() == 4 {
-                    // Homogeneous `w`, applied as tobj does.
-                    let w: f64 = vals[3].parse().map_err(|_| {
-                        at(format!(
-                            "vertex {}: cannot parse w {:?}",
-                            pre.vertices.len() + 1,
-                            vals[3]
-                        ))
-                    })?;
-                    if w == 0.0 {
-                        return Err(at(format!("vertex {}: w is 0", pre.vertices.len() + 1)));
+                let extra: [Option<&[u8]>; 4] = std::array::from_fn(|_| ws.next());
+                match extra {
+                    [None, ..] => {}
+                    [Some(w), None, ..] => {
+                        let w = parse_f64(w)
+                            .ok_or_else(|| at(format!(": cannot parse w {}", show(w))))?;
+                        if w == 0.0 {
+                            return Err(at(": w is 0".into()));
+                        }
+                        p /= w;
                     }
-                    p /= w;
+                    [Some(r), Some(g), Some(b), None]
+                        if [r, g, b].iter().all(|x| parse_f64(x).is_some()) =>
+                    {
+                        part.coloured += 1
+                    }
+                    _ => tally(&mut part.odd_extras, ln),
                 }
                 if !p.is_finite() {
                     return Err(at(format!(
-                        "vertex {} has a non-finite coordinate ({}, {}, {})",
-                        pre.vertices.len() + 1,
-                        p.x,
-                        p.y,
-                        p.z
+                        " has a non-finite coordinate ({}, {}, {})",
+                        p.x, p.y, p.z
                     )));
                 }
-                pre.vertices.push(p);
+                part.vertices.push(p);
             }
-            Some(kind @ ("f" | "l")) => {
-                let n = pre.vertices.len();
-                let mut idx = Vec::new();
-                for w in words {
-                    let mut comps = w.split('/');
-                    let v = comps.next().unwrap_or("");
-                    for extra in comps {
-                        if !extra.is_empty() && extra.parse::<isize>().is_err() {
-                            return Err(at(format!("cannot parse index {w:?}")));
-                        }
-                    }
-                    let i: i64 = v
-                        .parse()
-                        .map_err(|_| at(format!("cannot parse vertex index {w:?}")))?;
-                    let resolved = if i > 0 {
-                        let r = (i - 1) as usize;
-                        if r >= n {
-                            forward.push((ln, r));
-                        }
-                        r
-                    } else if i < 0 && i.unsigned_abs() as usize <= n {
-                        (n as i64 + i) as usize
-                    } else {
-                        return Err(at(format!(
-                            "vertex index {i} is out of range ({n} vertices defined so far)"
-                        )));
-                    };
-                    idx.push(resolved);
+            // Points are skipped: counted, not resolved.
+            b"p" => part.points += words(body).count(),
+            b"f" | b"l" => {
+                let n = v0 + part.vertices.len();
+                idx.clear();
+                for w in words(body) {
+                    idx.push(resolve(w, n, ln, name, &mut part.max_index)?);
                 }
-                if kind == "f" {
-                    if idx.len() < 3 {
-                        return Err(at(format!(
-                            "face has {} vertices, at least 3 are needed",
-                            idx.len()
-                        )));
+                match kw {
+                    b"f" => {
+                        if idx.len() < 3 {
+                            return Err(line_err(
+                                name,
+                                ln,
+                                format!("face has {} vertices, at least 3 are needed", idx.len()),
+                            ));
+                        }
+                        super::fan(&idx, &mut part.triangles);
                     }
-                    pre.faces += 1;
-                } else {
-                    pre.line_records.push(ln);
-                    pre.polylines.push(idx);
+                    _ => part.polylines.push(idx.clone()),
                 }
             }
-            Some("p") => pre.points += words.count(),
+            b"curv" | b"curv2" | b"surf" => tally(&mut part.freeform, ln),
             _ => {}
         }
     }
-    let n = pre.vertices.len();
-    if let Some(&(ln, r)) = forward.iter().find(|&&(_, r)| r >= n) {
-        return Err(VoxkitError::invalid(format!(
-            "{name}: line {}: vertex index {} is out of range (the file has {n} vertices)",
-            ln + 1,
-            r + 1
-        )));
+    Ok(part)
+}
+
+/// One face / line / point vertex: the index before the first `/`, 0-based;
+/// `n` vertices are defined so far.
+#[inline]
+fn resolve(
+    w: &[u8],
+    n: usize,
+    ln: usize,
+    name: &str,
+    max: &mut Option<(u32, usize)>,
+) -> Result<u32> {
+    let v = w.split(|&c| c == b'/').next().unwrap_or(w);
+    let i = parse_i64(v)
+        .ok_or_else(|| line_err(name, ln, format!("cannot parse vertex index {}", show(w))))?;
+    let out_of_range = || {
+        line_err(
+            name,
+            ln,
+            format!("vertex index {i} is out of range ({n} vertices defined so far)"),
+        )
+    };
+    if i > 0 {
+        let r = u32::try_from(i - 1).map_err(|_| out_of_range())?;
+        if r as usize >= n && max.is_none_or(|(m, _)| r > m) {
+            *max = Some((r, ln));
+        }
+        Ok(r)
+    } else if i < 0 && i.unsigned_abs() <= n as u64 {
+        Ok((n as i64 + i) as u32)
+    } else {
+        Err(out_of_range())
     }
-    Ok(pre)
+}
+
+/// `file: line N: message`.
+fn line_err(name: &str, ln: usize, msg: String) -> VoxkitError {
+    VoxkitError::invalid(format!("{name}: line {ln}: {msg}"))
+}
+
+/// A word for a message: quoted, non-UTF-8 bytes shown lossily, long words cut.
+fn show(w: &[u8]) -> String {
+    format!("`{}`", super::clip(&String::from_utf8_lossy(w)))
+}
+
+/// A decimal float (Rust's grammar: `1`, `-2.5e3`, `inf`, `nan`, ...).
+#[inline]
+fn parse_f64(w: &[u8]) -> Option<f64> {
+    std::str::from_utf8(w).ok()?.parse().ok()
+}
+
+/// A decimal integer with optional sign; `None` on anything else or overflow.
+#[inline]
+fn parse_i64(w: &[u8]) -> Option<i64> {
+    let (neg, digits) = match w.first()? {
+        b'-' => (true, &w[1..]),
+        b'+' => (false, &w[1..]),
+        _ => (false, w),
+    };
+    if digits.is_empty() {
+        return None;
+    }
+    let mut v: i64 = 0;
+    for &d in digits {
+        if !d.is_ascii_digit() {
+            return None;
+        }
+        v = v.checked_mul(10)?.checked_add((d - b'0') as i64)?;
+    }
+    Some(if neg { -v } else { v })
 }

@@ -30,7 +30,7 @@ use std::path::Path;
 
 use glam::DVec3;
 
-use super::{LoadSummary, Mesh};
+use super::{LoadSummary, Mesh, clip};
 use crate::error::{Result, VoxkitError};
 
 /// What may stand before `OFF` in the header: texture coordinates,
@@ -221,7 +221,7 @@ pub fn parse(bytes: &[u8], name: &str) -> Result<Mesh> {
             }
             idx.push(i as u32);
         }
-        super::ply::fan(&idx, &mut triangles);
+        super::fan(&idx, &mut triangles);
     }
     Mesh::from_parts_with(
         name,
@@ -230,11 +230,6 @@ pub fn parse(bytes: &[u8], name: &str) -> Result<Mesh> {
         Vec::new(),
         &mut LoadSummary::default(),
     )
-}
-
-/// At most 40 characters of `s`, for messages.
-fn clip(s: &str) -> String {
-    s.chars().take(40).collect()
 }
 
 /// The significant lines of the text (comments cut, blank lines skipped)

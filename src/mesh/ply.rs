@@ -25,13 +25,13 @@ use std::borrow::Cow;
 use std::path::Path;
 
 use glam::DVec3;
-use ply_rs_bw::parser::{Parser, Reader};
+use ply_rs_bw::parser::{ParseError, Parser, Reader};
 use ply_rs_bw::ply::{
     BeginList, ElementDef, Encoding, Header, PropertyAccess, PropertyAccessResult, PropertyType,
     ScalarType,
 };
 
-use super::{LoadSummary, Mesh};
+use super::{LoadSummary, Mesh, clip};
 use crate::error::{Result, VoxkitError};
 use crate::grid::MemoryLimit;
 use crate::guard::contain;
@@ -92,7 +92,7 @@ pub fn parse(bytes: &[u8], name: &str) -> Result<Mesh> {
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     for (f, face) in faces.iter().enumerate() {
         let idx = face.indices(name, f, n)?;
-        fan(&idx, &mut triangles);
+        super::fan(&idx, &mut triangles);
     }
     drop(faces);
     Mesh::from_parts_with(
@@ -104,30 +104,114 @@ pub fn parse(bytes: &[u8], name: &str) -> Result<Mesh> {
     )
 }
 
-/// Fan-triangulates one polygon (`0, k, k+1`) into `out`.
-pub(crate) fn fan(idx: &[u32], out: &mut Vec<[u32; 3]>) {
-    for k in 1..idx.len().saturating_sub(1) {
-        out.push([idx[0], idx[k], idx[k + 1]]);
-    }
+/// A `ply-rs-bw` error as one human line: `FILE: line N: PLY WHAT: what is
+/// wrong`. Its messages span several lines, quote whole input lines and
+/// embed `Debug` dumps of the grammar's errors (`ParseError { location:
+/// LineCol { .. } }`); this keeps the line number and turns the known
+/// messages into plain text, quoting at most the offending value.
+fn ply_error(name: &str, what: &str, e: &ParseError) -> VoxkitError {
+    let at = e.line().map(|l| format!("line {l}: ")).unwrap_or_default();
+    VoxkitError::invalid(format!(
+        "{name}: {at}PLY {what}: {}",
+        ply_message(&e.to_string())
+    ))
 }
 
-/// A `ply-rs-bw` error as one line (its messages span several and quote
-/// whole input lines).
-fn ply_error(name: &str, what: &str, e: &dyn std::fmt::Display) -> VoxkitError {
-    let mut msg = e
-        .to_string()
-        .split_whitespace()
-        .collect::<Vec<_>>()
-        .join(" ");
-    if msg.len() > 300 {
-        let cut = (0..=300)
-            .rev()
-            .find(|&i| msg.is_char_boundary(i))
-            .unwrap_or(0);
-        msg.truncate(cut);
-        msg.push_str(" ...");
+/// The plain-text core of one `ply-rs-bw` message (see [`ply_error`]).
+fn ply_message(full: &str) -> String {
+    // Display prefixes "Line N: ", which `ply_error` already gave.
+    let full = match full.strip_prefix("Line ") {
+        Some(r) => r.split_once(": ").map_or(full, |(_, m)| m),
+        None => full,
+    };
+    let quoted = |key: &str| {
+        let i = full.find(key)? + key.len();
+        let rest = &full[i..];
+        let end = rest
+            .find("'\n")
+            .or_else(|| rest.find("', "))
+            .or_else(|| rest.rfind('\''))?;
+        Some(clip(rest[..end].trim()))
+    };
+    let head = full.lines().next().unwrap_or("").trim();
+    let eof = |kind: &str| {
+        // "... element 'face' (expected 12, got 3)."
+        let el = head.split('\'').nth(1).unwrap_or("?");
+        let nums: Vec<&str> = head
+            .rsplit_once('(')
+            .map(|(_, r)| {
+                r.split(|c: char| !c.is_ascii_digit())
+                    .filter(|w| !w.is_empty())
+                    .collect()
+            })
+            .unwrap_or_default();
+        match nums.as_slice() {
+            [want, got] => {
+                format!("the file ends after {got} of {want} {kind}`{el}` elements (truncated?)")
+            }
+            _ => format!("the file ends inside {kind}element `{el}` (truncated?)"),
+        }
+    };
+    if head.starts_with("Expected magic number") {
+        return match quoted("String: '") {
+            Some(l) => format!("not a PLY file: the first line is `{l}`, not `ply`"),
+            None => "not a PLY file: the first line is not `ply`".into(),
+        };
     }
-    VoxkitError::invalid(format!("{name}: PLY {what}: {msg}"))
+    if head.starts_with("Unexpected end of file while reading binary element") {
+        return eof("binary ");
+    }
+    if head.starts_with("Unexpected end of file while reading element") {
+        return eof("");
+    }
+    if head.starts_with("Unexpected end of file while reading header") {
+        return "the header has no `end_header` line".into();
+    }
+    if head.starts_with("Unexpected end of file") {
+        return "the file ends early (truncated?)".into();
+    }
+    if head.starts_with("Couldn't parse line.") {
+        return match quoted("String: ") {
+            Some(l) => format!("cannot parse header line `{}`", l.trim_matches('\'')),
+            None => "cannot parse a header line".into(),
+        };
+    }
+    if head.starts_with("Couldn't read element line.")
+        || head.starts_with("Couldn't parse element line")
+    {
+        if let Some(v) = quoted("Value: '") {
+            return format!("cannot parse value `{v}`");
+        }
+        if full.contains("but found nothing") {
+            return "too few values on the line".into();
+        }
+        if let Some(i) = full.find("Couldn't parse element at index ") {
+            let k: String = full[i + 32..]
+                .chars()
+                .take_while(char::is_ascii_digit)
+                .collect();
+            return format!("list entry {k} is not a number");
+        }
+        if full.contains("Expected") && full.contains("list elements") {
+            return "a list has fewer entries than its count".into();
+        }
+        return match quoted("String: '") {
+            Some(l) => format!("cannot parse the line `{l}`"),
+            None => "cannot parse an element line".into(),
+        };
+    }
+    if head.starts_with("Property") && head.contains("without preceding element") {
+        return "a `property` line comes before any `element` line".into();
+    }
+    if head.starts_with("Found contradicting format") {
+        return "two different `format` lines".into();
+    }
+    // Anything else: its first line, cut before any `Debug` dump.
+    let cut = head
+        .find('{')
+        .and_then(|b| head[..b].rfind(": "))
+        .map_or(head, |i| &head[..i]);
+    clip(cut)
 }
 
 /// The names of the elements the mesh comes from.

@@ -415,7 +415,7 @@ fn bad_voxel_files_give_typed_errors() {
     expect_invalid(
         &w(
             "dim.nrrd",
-            b"NRRD0004\ntype: uchar\ndimension: 2\nsizes: 1 1\nencoding: raw\n\n\x00",
+            b"NRRD0004\ntype: uchar\ndimension: 2\nsizes: 1 1 1\nencoding: raw\n\n\x00",
         ),
         "dimension",
     );
@@ -424,7 +424,7 @@ fn bad_voxel_files_give_typed_errors() {
             "long.nrrd",
             b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 1 1 1\nencoding: raw\n\n\x00\x00",
         ),
-        "expected",
+        "need 1",
     );
     expect_invalid(&w("magic.vox", b"VOXX\x96\x00\x00\x00"), "magic");
     expect_invalid(
@@ -438,10 +438,10 @@ fn bad_voxel_files_give_typed_errors() {
         }),
         "2 dimensions",
     );
-    // gzip NRRD is unsupported, not invalid.
+    // A NRRD encoding voxkit does not read is unsupported, not invalid.
     let p = w(
-        "gz.nrrd",
-        b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 1 1 1\nencoding: gzip\n\n",
+        "hex.nrrd",
+        b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 1 1 1\nencoding: hex\n\n01",
     );
     assert!(matches!(
         read_voxels(&p, MemoryLimit::DEFAULT),

@@ -3,6 +3,7 @@
 mod amanatides_woo;
 mod batch_cli;
 mod bricks;
+mod conformance;
 mod conservative;
 mod demo;
 mod formats;

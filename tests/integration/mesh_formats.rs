@@ -562,7 +562,7 @@ fn malformed_files_are_typed_errors() {
     // Bad magic.
     let mut b = write_ply(&p, &f, PlyEnc::Le, true);
     b[..3].copy_from_slice(b"plx");
-    invalid(ply::parse(&b, "m.ply"), "m.ply: PLY header");
+    invalid(ply::parse(&b, "m.ply"), "PLY header");
     invalid(stl::parse(b"hello", "m.stl"), "not an STL file");
     invalid(
         off::parse(b"OFX\n3 1 0\n", "m.off"),

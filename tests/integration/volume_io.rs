@@ -891,12 +891,16 @@ fn nrrd_bad_files() {
         &swap("short", "int64"),
         &raw,
     ));
-    expect_unsupported(&nrrd_with(
-        &dir,
-        "bz2.nrrd",
-        &swap("encoding: raw", "encoding: bzip2"),
-        &raw,
-    ));
+    // Raw bytes declared as bzip2: a stream error naming the encoding.
+    expect_invalid(
+        &nrrd_with(
+            &dir,
+            "bz2.nrrd",
+            &swap("encoding: raw", "encoding: bzip2"),
+            &raw,
+        ),
+        &["bzip2"],
+    );
     expect_unsupported(&nrrd_with(
         &dir,
         "hex.nrrd",
@@ -912,10 +916,11 @@ fn nrrd_bad_files() {
         ),
         &["zip"],
     );
+    // 4-D without a size-1 axis to squeeze.
     expect_unsupported(&nrrd_with(
         &dir,
         "dim4.nrrd",
-        &swap("dimension: 3", "dimension: 4"),
+        &swap("dimension: 3\nsizes: 5 3 7", "dimension: 4\nsizes: 5 3 7 2"),
         &raw,
     ));
     expect_invalid(
