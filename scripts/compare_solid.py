@@ -102,7 +102,9 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
-PEERS = ROOT.parent / "shared" / "peers"
+# ../shared/peers from the main checkout, ../../shared/peers from a worktree under wt/.
+PEERS = next((p for p in (ROOT.parent / "shared" / "peers", ROOT.parent.parent / "shared" / "peers")
+              if p.exists()), ROOT.parent / "shared" / "peers")
 MESHES = {
     "spot": ROOT / "data/meshes/obj/spot.obj",
     "fandisk": ROOT / "data/meshes/obj/fandisk.obj",
@@ -521,7 +523,8 @@ def speed(a):
                        libigl_all_ms=[x[0] for x in c["igl_runs"]],
                        libigl_estimated=c["igl_runs"][-1][2]["estimated"])
             row["ratio"] = row["libigl_ms"] / vk_ms
-        if c["res"] <= 256 and c["igl"]:
+        print(json.dumps({k: v for k, v in row.items() if k != "json"}), flush=True)
+        if c["res"] <= 256 and c["igl"] and not a.no_score:
             lat = c["lat"]
             off = ~conservative(c["V"], c["F"], lat)
             Q = lat.centres()
@@ -531,8 +534,9 @@ def speed(a):
             row["voxkit_wrong"] = int((c["solid"] != ref)[off].sum())
             row["libigl_wrong"] = int(((wf >= 0.5).reshape(lat.dims) != ref)[off].sum())
             row["scored"] = int(off.sum())
+            print(json.dumps({k: row[k] for k in ("mesh", "damage", "res", "voxkit_wrong", "libigl_wrong", "scored")}),
+                  flush=True)
         rows.append(row)
-        print(json.dumps({k: v for k, v in row.items() if k != "json"}), flush=True)
     print("\n| mesh | damage | -r | voxkit | peak | libigl `fast_winding_number` | peak | libigl / voxkit "
           "| wrong voxkit / libigl |")
     print("|---|---|---|---|---|---|---|---|---|")
@@ -595,6 +599,7 @@ def main():
     ap.add_argument("-r", "--res", type=int, nargs="+", default=None, help="resolution(s) (holes mode: the first; default 128, speed mode 128 256)")
     ap.add_argument("--speed", action="store_true", help="speed mode (see above)")
     ap.add_argument("--rounds", type=int, default=3, help="speed mode: interleaved rounds")
+    ap.add_argument("--no-score", action="store_true", help="speed mode: times only, no wrong-voxel count")
     ap.add_argument("--scanned-res", type=int, nargs="*", default=[512, 1024], help="speed mode: the bunny as scanned")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--reps", type=int, default=1, help="timed runs per tool (median)")
