@@ -69,9 +69,9 @@ the bunny as scanned (its 5 base holes) at each `--scanned-res` (512, 1024);
 the closed bunny at 1024 (voxkit only: its time and memory target). Both tools
 run as child processes: voxkit `voxelize --mode solid --json` (its
 `voxelize_ms`), libigl a Python child that loads V, F and voxkit's lattice,
-builds the centres and times `igl.fast_winding_number` alone; peak RSS of
-each child from wait4 (libigl's includes the interpreter, numpy and the
-centres it is given, 24 B each). Above 20M centres libigl is timed on a
+builds the centres and times `igl.fast_winding_number` alone; peak RSS:
+voxkit's own `peak_rss_mib`, the libigl child's VmHWM (it includes the
+interpreter, numpy and the centres it is given, 24 B each). Above 20M centres libigl is timed on a
 sample of 4M centres spread over the box and its time extrapolated per query
 (printed `est`). Wrong voxels (at res <= 256, where the reference costs
 seconds): centres off the holed mesh's conservative set (grown by 1/256) where
@@ -452,12 +452,15 @@ else:
 t = time.perf_counter()
 igl.fast_winding_number(V, F, Q)
 ms = (time.perf_counter() - t) * 1e3
-print(json.dumps(dict(ms=ms * n / len(Q), queries=len(Q), centres=n, estimated=len(Q) < n)))
+hwm = [l for l in open("/proc/self/status") if l.startswith("VmHWM")][0].split()[1]
+print(json.dumps(dict(ms=ms * n / len(Q), queries=len(Q), centres=n, estimated=len(Q) < n, peak_mib=int(hwm) / 1024)))
 """
 
 
 def child_rss(cmd):
-    """(JSON record, peak RSS MiB) of one child run, RSS by wait4."""
+    """(JSON record, peak RSS MiB) of one child run: the record's own
+    `peak_rss_mib` / `peak_mib` (wait4's ru_maxrss counts the forked
+    parent's pages before exec, so it is not used)."""
     import os
 
     p = subprocess.Popen([str(c) for c in cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -467,7 +470,8 @@ def child_rss(cmd):
     p.returncode = os.waitstatus_to_exitcode(status)
     if p.returncode != 0:
         raise SystemExit(f"{' '.join(map(str, cmd))} failed ({p.returncode}):\n{err}")
-    return json.loads([l for l in out.splitlines() if l.startswith("{")][-1]), ru.ru_maxrss / 1024.0
+    j = json.loads([l for l in out.splitlines() if l.startswith("{")][-1])
+    return j, j.get("peak_rss_mib", j.get("peak_mib"))
 
 
 def speed(a):
