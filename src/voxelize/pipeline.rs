@@ -589,7 +589,7 @@ impl PreparedMesh<'_> {
                 // Solid's own steps: its refined bricks, every 64th reported.
                 let bricks = |done: u64, total: u64| {
                     if let Some(p) = &opts.progress
-                        && (done % 64 == 0 || done == total)
+                        && (done.is_multiple_of(64) || done == total)
                     {
                         p(Progress {
                             phase: "solid",
