@@ -11,6 +11,10 @@ usage (from the repository root, with the peers' virtualenv, see
         [--meshes spot fandisk bunny | PATH.obj ...] [--fractions 0 1 5 20 40] \
         [--res 128] [--seed 0] [--reps 1] [--no-trimesh] [--keep DIR] [--voxkit BIN]
 
+    # the speed table (issue 22): voxkit against libigl, interleaved rounds
+    ../shared/peers/.venv/bin/python scripts/compare_solid.py --speed \
+        [--rounds 3] [--fractions 5 20 40] [--res 128 256] [--scanned-res 512 1024] [--voxkit BIN]
+
     # the correctness check: voxkit solid against the winding number, one mesh
     ../shared/peers/.venv/bin/python scripts/compare_solid.py \
         --check-winding MESH.obj -r 128 [--exact] [--margin 0.05] [--allow 0] [--voxkit BIN]
@@ -56,6 +60,24 @@ Times: voxkit's `voxelize_ms` (all cores), libigl the fast_winding_number call
 voxelized + fill (one thread); median of --reps. On a shared machine they vary
 by 2x or more between runs.
 
+SPEED MODE (`--speed`). One run, every case measured in the same rounds
+(round r runs voxkit then libigl on case 1, then case 2, ...; medians over the
+rounds), so the machine's slow phases hit both tools. Cases: Spot and the
+bunny (holes closed as above) with 5, 20 and 40 % of their triangles deleted
+(same seeded deletions as holes mode) at each `--res` (default 128 and 256);
+the bunny as scanned (its 5 base holes) at each `--scanned-res` (512, 1024);
+the closed bunny at 1024 (voxkit only: its time and memory target). Both tools
+run as child processes: voxkit `voxelize --mode solid --json` (its
+`voxelize_ms`), libigl a Python child that loads V, F and voxkit's lattice,
+builds the centres and times `igl.fast_winding_number` alone; peak RSS:
+voxkit's own `peak_rss_mib`, the libigl child's VmHWM (it includes the
+interpreter, numpy and the centres it is given, 24 B each). Above 20M centres libigl is timed on a
+sample of 4M centres spread over the box and its time extrapolated per query
+(printed `est`). Wrong voxels (at res <= 256, where the reference costs
+seconds): centres off the holed mesh's conservative set (grown by 1/256) where
+the tool differs from the winding number (libigl's fast one, recomputed
+exactly within --margin of 1/2: the check mode's reference).
+
 CHECK MODE. `--check-winding MESH.obj -r N` runs voxkit solid on the mesh and
 counts the voxel centres, off the mesh's (grown) conservative set, where
 voxkit's solid and the winding number (w >= 1/2) disagree. w is the fast
@@ -80,7 +102,9 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
-PEERS = ROOT.parent / "shared" / "peers"
+# ../shared/peers from the main checkout, ../../shared/peers from a worktree under wt/.
+PEERS = next((p for p in (ROOT.parent / "shared" / "peers", ROOT.parent.parent / "shared" / "peers")
+              if p.exists()), ROOT.parent / "shared" / "peers")
 MESHES = {
     "spot": ROOT / "data/meshes/obj/spot.obj",
     "fandisk": ROOT / "data/meshes/obj/fandisk.obj",
@@ -406,6 +430,129 @@ def holes_table(rows):
             "–" if r is None else f"{r['disagree_libigl']:,} ({r['disagree_near_half']:,})" for r in cs) + " |")
 
 
+# ---------------------------------------------------------------- speed mode
+
+IGL_CHILD = r"""
+import json, sys, time
+import numpy as np
+import igl
+d = np.load(sys.argv[1])
+V, F, origin, h, dims = d["V"], d["F"], d["origin"], float(d["h"]), d["dims"]
+sample = int(sys.argv[2])
+ax = [origin[a] + (np.arange(dims[a]) + 0.5) * h for a in range(3)]
+n = int(np.prod(dims))
+if sample and n > sample:
+    rng = np.random.default_rng(0)
+    idx = np.sort(rng.choice(n, sample, replace=False))
+    i, j, k = np.unravel_index(idx, tuple(int(x) for x in dims))
+    Q = np.stack([ax[0][i], ax[1][j], ax[2][k]], axis=1)
+else:
+    g = np.meshgrid(*ax, indexing="ij")
+    Q = np.stack([x.ravel() for x in g], axis=1)
+t = time.perf_counter()
+igl.fast_winding_number(V, F, Q)
+ms = (time.perf_counter() - t) * 1e3
+hwm = [l for l in open("/proc/self/status") if l.startswith("VmHWM")][0].split()[1]
+print(json.dumps(dict(ms=ms * n / len(Q), queries=len(Q), centres=n, estimated=len(Q) < n, peak_mib=int(hwm) / 1024)))
+"""
+
+
+def child_rss(cmd):
+    """(JSON record, peak RSS MiB) of one child run: the record's own
+    `peak_rss_mib` / `peak_mib` (wait4's ru_maxrss counts the forked
+    parent's pages before exec, so it is not used)."""
+    import os
+
+    p = subprocess.Popen([str(c) for c in cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    out = p.stdout.read()
+    err = p.stderr.read()
+    _, status, ru = os.wait4(p.pid, 0)
+    p.returncode = os.waitstatus_to_exitcode(status)
+    if p.returncode != 0:
+        raise SystemExit(f"{' '.join(map(str, cmd))} failed ({p.returncode}):\n{err}")
+    j = json.loads([l for l in out.splitlines() if l.startswith("{")][-1])
+    return j, j.get("peak_rss_mib", j.get("peak_mib"))
+
+
+def speed(a):
+    import igl
+
+    tmp = Path(a.keep or tempfile.mkdtemp())
+    tmp.mkdir(parents=True, exist_ok=True)
+    cases = []
+    for name in ["spot", "bunny"]:
+        V, Fc, _ = closed_mesh(name)
+        protect = protected_triangles(V, Fc)
+        for pct in a.fractions:
+            Fh, k = delete_random(Fc, pct, a.seed, protect)
+            path = tmp / f"{name}_holed{pct:g}.obj"
+            write_obj(path, V, Fh)
+            for res in a.res:
+                cases.append(dict(mesh=name, damage=f"{pct:g}% removed", res=res, path=path, V=V, F=Fh, igl=True))
+        if name == "bunny":
+            path = tmp / "bunny_closed.obj"
+            write_obj(path, V, Fc)
+            cases.append(dict(mesh=name, damage="closed", res=1024, path=path, V=V, F=Fc, igl=False))
+    Vs, Fs = load_obj(MESHES["bunny"])
+    for res in a.scanned_res:
+        cases.append(dict(mesh="bunny", damage="as scanned", res=res, path=MESHES["bunny"], V=Vs, F=Fs, igl=True))
+    out = tmp / "v.binvox"
+    for c in cases:
+        c["vk"], c["igl_runs"] = [], []
+        j = run_json([a.voxkit, "voxelize", c["path"], "-r", c["res"], "-o", out, "--mode", "solid", "--json",
+                      "-q", "--force"])
+        grid, translate, scale = read_binvox(out)
+        c["lat"] = Lattice(translate, scale / max(grid.shape), j["dims"])
+        c["solid"] = grid[: j["dims"][0], : j["dims"][1], : j["dims"][2]]
+        c["npz"] = tmp / f"case{cases.index(c)}.npz"
+        np.savez(c["npz"], V=c["V"], F=c["F"], origin=c["lat"].origin, h=c["lat"].h, dims=np.array(c["lat"].dims))
+    for r in range(a.rounds):
+        for c in cases:
+            j, rss = child_rss([a.voxkit, "voxelize", c["path"], "-r", c["res"], "-o", out, "--mode", "solid",
+                                "--json", "-q", "--force"])
+            c["vk"].append((j["voxelize_ms"], rss, j))
+            if c["igl"]:
+                j, rss = child_rss([sys.executable, "-c", IGL_CHILD, c["npz"], 4_000_000 if c["res"] > 256 else 0])
+                c["igl_runs"].append((j["ms"], rss, j))
+        print(f"round {r + 1}/{a.rounds} done", file=sys.stderr, flush=True)
+    rows = []
+    for c in cases:
+        vk_ms = statistics.median(x[0] for x in c["vk"])
+        row = dict(mesh=c["mesh"], damage=c["damage"], res=c["res"], dims=c["lat"].dims,
+                   voxkit_ms=vk_ms, voxkit_mib=max(x[1] for x in c["vk"]),
+                   voxkit_all_ms=[x[0] for x in c["vk"]], json=c["vk"][-1][2])
+        if c["igl"]:
+            row.update(libigl_ms=statistics.median(x[0] for x in c["igl_runs"]),
+                       libigl_mib=max(x[1] for x in c["igl_runs"]),
+                       libigl_all_ms=[x[0] for x in c["igl_runs"]],
+                       libigl_estimated=c["igl_runs"][-1][2]["estimated"])
+            row["ratio"] = row["libigl_ms"] / vk_ms
+        print(json.dumps({k: v for k, v in row.items() if k != "json"}), flush=True)
+        if c["res"] <= 256 and c["igl"] and not a.no_score:
+            lat = c["lat"]
+            off = ~conservative(c["V"], c["F"], lat)
+            Q = lat.centres()
+            wf = winding(c["V"], c["F"], Q)[0]
+            w, _ = refine_near_half(c["V"], c["F"], Q, wf, a.margin)
+            ref = (w >= 0.5).reshape(lat.dims)
+            row["voxkit_wrong"] = int((c["solid"] != ref)[off].sum())
+            row["libigl_wrong"] = int(((wf >= 0.5).reshape(lat.dims) != ref)[off].sum())
+            row["scored"] = int(off.sum())
+            print(json.dumps({k: row[k] for k in ("mesh", "damage", "res", "voxkit_wrong", "libigl_wrong", "scored")}),
+                  flush=True)
+        rows.append(row)
+    print("\n| mesh | damage | -r | voxkit | peak | libigl `fast_winding_number` | peak | libigl / voxkit "
+          "| wrong voxkit / libigl |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        lib = "–" if "libigl_ms" not in r else (("est. " if r["libigl_estimated"] else "") + fmt_ms(r["libigl_ms"]))
+        print(f"| {r['mesh']} | {r['damage']} | {r['res']} | {fmt_ms(r['voxkit_ms'])} | {r['voxkit_mib']:.0f} MiB "
+              f"| {lib} | {r.get('libigl_mib', 0):.0f} MiB | "
+              + (f"{r['ratio']:.1f}×" if "ratio" in r else "–") + " | "
+              + (f"{r['voxkit_wrong']} / {r['libigl_wrong']} of {r['scored']:,}" if "scored" in r else "not scored")
+              + " |")
+
+
 # ---------------------------------------------------------------- check mode
 
 
@@ -453,7 +600,11 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--meshes", nargs="+", default=list(MESHES), help="names (spot fandisk bunny) or OBJ paths")
     ap.add_argument("--fractions", nargs="+", type=float, default=[0, 1, 5, 20, 40], help="percent of triangles deleted (0: the closed mesh)")
-    ap.add_argument("-r", "--res", type=int, default=128)
+    ap.add_argument("-r", "--res", type=int, nargs="+", default=None, help="resolution(s) (holes mode: the first; default 128, speed mode 128 256)")
+    ap.add_argument("--speed", action="store_true", help="speed mode (see above)")
+    ap.add_argument("--rounds", type=int, default=3, help="speed mode: interleaved rounds")
+    ap.add_argument("--no-score", action="store_true", help="speed mode: times only, no wrong-voxel count")
+    ap.add_argument("--scanned-res", type=int, nargs="*", default=[512, 1024], help="speed mode: the bunny as scanned")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--reps", type=int, default=1, help="timed runs per tool (median)")
     ap.add_argument("--no-trimesh", action="store_true")
@@ -466,6 +617,12 @@ def main():
     a = ap.parse_args()
     if not Path(a.voxkit).exists():
         raise SystemExit(f"{a.voxkit} missing: run `cargo build --release` first")
+    if a.speed:
+        a.res = a.res or [128, 256]
+        if a.fractions == [0, 1, 5, 20, 40]:
+            a.fractions = [5, 20, 40]
+        return speed(a)
+    a.res = (a.res or [128])[0]
     if a.check_winding:
         raise SystemExit(check_winding(a))
     rows = []

@@ -268,6 +268,18 @@ pub(super) fn result_json(
         obj.insert("winding_ambiguous".into(), solid.ambiguous.into());
         obj.insert("winding_point_queries".into(), solid.point_queries.into());
         obj.insert("winding_box_queries".into(), solid.box_queries.into());
+        obj.insert("winding_straddling".into(), solid.straddling.into());
+        let ms = |us: u64| us as f64 / 1000.0;
+        obj.insert("solid_regions_ms".into(), ms(solid.regions_us).into());
+        obj.insert(
+            "solid_far_field_cpu_ms".into(),
+            ms(solid.far_field_us).into(),
+        );
+        obj.insert(
+            "solid_near_field_cpu_ms".into(),
+            ms(solid.near_field_us).into(),
+        );
+        obj.insert("solid_refine_cpu_ms".into(), ms(solid.refine_us).into());
     }
     j
 }
@@ -312,7 +324,10 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
         opts.progress = Some(Arc::new(move |p: Progress| {
             b.set_length(p.total + 2);
             b.set_position(p.done);
-            b.set_message(p.phase);
+            match p.step {
+                Some((done, total)) => b.set_message(format!("{} {done}/{total} bricks", p.phase)),
+                None => b.set_message(p.phase),
+            }
         }));
     }
     let result = voxelize_mesh(&mesh, &opts);

@@ -588,6 +588,9 @@ mod tests {
         VolumeBricks::from_volume(vol, MemoryLimit::DEFAULT).unwrap()
     }
 
+    /// A sample's expected value by its dense index.
+    type Expected = Box<dyn Fn(usize) -> f32>;
+
     /// Every sample type reads back the file's values exactly (NaN as
     /// −∞, f64 rounded to f32), at sizes that are and are not multiples of
     /// the brick, through `value`, `gather` and `value_at`.
@@ -604,7 +607,7 @@ mod tests {
             let raw: Vec<i64> = (0..n as i64)
                 .map(|i| (i * 7919 + 13) % 1009 - 500)
                 .collect();
-            let cases: Vec<(VolumeData, Box<dyn Fn(usize) -> f32>)> = vec![
+            let cases: Vec<(VolumeData, Expected)> = vec![
                 (
                     VolumeData::I8(raw.iter().map(|&x| (x % 128) as i8).collect()),
                     {

@@ -68,7 +68,7 @@ use crate::mesh::{MAX_FITTED_DIM, Mesh, fit_frame, fit_frame_voxel_size, fitted_
 use crate::voxelize::conservative::{FixedTriangle, conservative_voxels};
 use crate::voxelize::slab::BrickList;
 use crate::voxelize::snapped::voxelize_snapped;
-use crate::voxelize::solid::{InsideTest, SolidStats, solid_interior};
+use crate::voxelize::solid::{InsideTest, SolidStats, solid_interior_with_progress};
 use crate::voxelize::surface::{
     SurfaceMode, SurfaceTriangle, VOXEL_FRAC_BITS, VOXEL_ONE, voxelize_surface_slabs,
 };
@@ -116,9 +116,13 @@ pub struct Progress {
     pub done: u64,
     /// Phases in this run.
     pub total: u64,
+    /// Within the phase, steps done of all (the solid phase's refined
+    /// bricks), when it reports them.
+    pub step: Option<(u64, u64)>,
 }
 
-/// A progress callback (called from the calling thread between phases).
+/// A progress callback (called from the calling thread between phases, and
+/// from worker threads for steps within a phase).
 pub type ProgressFn = dyn Fn(Progress) + Send + Sync;
 
 /// Which lattice the grid is fitted on.
@@ -491,6 +495,7 @@ fn report_progress(opts: &VoxelizeOptions, phase: &'static str, done: u64) {
             phase,
             done,
             total: total_phases(opts.mode),
+            step: None,
         });
     }
 }
@@ -581,7 +586,27 @@ impl PreparedMesh<'_> {
                 let mut g =
                     bricks_to_grid(surface_bricks(triangles, dims_i, SurfaceMode::Thin, kk)?);
                 report("solid");
-                let (inside, s) = solid_interior(triangles, skipped, frame.dims, opts.inside, &g)?;
+                // Solid's own steps: its refined bricks, every 64th reported.
+                let bricks = |done: u64, total: u64| {
+                    if let Some(p) = &opts.progress
+                        && (done.is_multiple_of(64) || done == total)
+                    {
+                        p(Progress {
+                            phase: "solid",
+                            done: 2,
+                            total: total_phases(opts.mode),
+                            step: Some((done, total)),
+                        });
+                    }
+                };
+                let (inside, s) = solid_interior_with_progress(
+                    triangles,
+                    skipped,
+                    frame.dims,
+                    opts.inside,
+                    &g,
+                    Some(&bricks),
+                )?;
                 solid_stats = Some(s);
                 g.union_with(&inside);
                 g

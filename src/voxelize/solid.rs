@@ -6,8 +6,12 @@
 //!   signed crossing count of the mesh closed by caps over its holes,
 //!   [`crate::voxelize::caps`], [`crate::voxelize::fill`]) plus the caps'
 //!   own winding number from a Barnes–Hut tree with rigorous error bounds
-//!   ([`crate::voxelize::winding`]), decided by regions so that only boxes
-//!   near the holes go down to single voxels. With [`InsideTest::Parity`]:
+//!   ([`crate::voxelize::winding`]), decided by regions so that only bricks
+//!   near the holes go down to single voxels; there the caps' far field is
+//!   shared by the brick (a local expansion with a rigorous error bound,
+//!   refined for its sub-cubes), the near field summed exactly in vector
+//!   lanes, and only centres whose bound straddles ½ are evaluated one by
+//!   one. With [`InsideTest::Parity`]:
 //!   exact crossing parity along x, for watertight meshes. Output in tiles.
 //!
 //! The references it is tested against:
@@ -52,7 +56,9 @@ use crate::voxelize::fill::{
     BrickRefiner, BrickRule, FillOutput, LineValue, NoRefiner, fill_interior,
 };
 use crate::voxelize::surface::{SurfaceTriangle, VOXEL_ONE};
-use crate::voxelize::winding::{Estimate, WindingTree};
+use crate::voxelize::winding::{
+    Estimate, FAST_ATAN2_ERROR, LANES, LocalExpansion, ROUNDING_SLACK, WindingTree,
+};
 
 /// A centre is inside when its winding number is at least this.
 pub const WINDING_THRESHOLD: f64 = 0.5;
@@ -355,7 +361,31 @@ pub struct SolidStats {
     /// Voxel centres off the surface with `|w − ½| <` [`AMBIGUITY_BAND`]
     /// (`w` as estimated for the decision, within its error bound).
     pub ambiguous: u64,
+    /// Centres of refined bricks that the brick's far field and exact near
+    /// field left undecided (sent to the per-point path).
+    pub straddling: u64,
+    /// Wall time (µs) of the region octree (the caps' bounds over boxes).
+    pub regions_us: u64,
+    /// Time (µs, summed over threads) building the refined bricks' far
+    /// fields (local expansions and near lists).
+    pub far_field_us: u64,
+    /// Time (µs, summed over threads) in the exact near field of the
+    /// refined bricks' centres.
+    pub near_field_us: u64,
+    /// Time (µs, summed over threads) deciding the straddling centres one
+    /// by one.
+    pub refine_us: u64,
 }
+
+/// A progress callback for the refined bricks: `(done, total)`, called from
+/// the worker threads.
+pub type BrickProgress<'a> = dyn Fn(u64, u64) + Sync + 'a;
+
+/// Opening ratio of the refined bricks' far field (node accepted when
+/// farther than `(β + 1)(r + ρ)` from the box centre): small, so that the
+/// near field summed centre by centre stays short; its looser bound sends
+/// only the few centres with `w` near ½ on to the per-point path.
+const BRICK_BETA: f64 = 1.5;
 
 /// Voxels whose winding number lies within this of ½ are counted as
 /// ambiguous ([`SolidStats::ambiguous`]): their verdict hangs on how the
@@ -374,7 +404,8 @@ const EXACT_CAPS: usize = 512;
 /// inside `[0, dims)`: the voxel centres the chosen test puts inside, as
 /// tiles (whole bricks) and partial bricks. `degenerate` triangles take part
 /// in the mesh's boundary only. `surface` (the voxels the caller adds
-/// anyway) is used only to leave surface voxels out of the ambiguity count.
+/// anyway) is left out of the ambiguity count, and refined bricks put its
+/// voxels inside without deciding them.
 ///
 /// With [`InsideTest::Winding`], a centre `q` is inside iff `w(q) ≥ ½` for
 /// the generalized winding number `w = w_{S−S'} + w_{S'}`
@@ -383,9 +414,13 @@ const EXACT_CAPS: usize = 512;
 /// second from a Barnes–Hut tree with rigorous error bounds
 /// ([`crate::voxelize::winding`]), by regions: an octree over the grid stops
 /// at the first box whose bound puts `m + w_{S'}` on one side of ½ for every
-/// integer `m` (with [`AMBIGUITY_BAND`] to spare), so only boxes near the
-/// caps go down to voxels. On a closed, consistently oriented mesh there are
-/// no caps and the result is exact.
+/// integer `m` (with [`AMBIGUITY_BAND`] to spare), so only bricks near the
+/// caps go down to voxels. Those get the fast multipole treatment (see
+/// [`BrickRefiner::refine`] of the classifier): per brick one far field, per
+/// centre a polynomial and the exact near field, and the per-point tree walk
+/// only where the bound straddles ½. Centres in `surface` are put inside
+/// without a winding number (the caller adds them anyway). On a closed,
+/// consistently oriented mesh there are no caps and the result is exact.
 ///
 /// # Errors
 /// [`VoxkitError::Unsupported`] for a triangle spanning 2^20 voxels or more.
@@ -408,6 +443,22 @@ pub fn solid_interior(
     dims: Dims,
     test: InsideTest,
     surface: &BrickGrid,
+) -> Result<(BrickGrid, SolidStats)> {
+    solid_interior_with_progress(triangles, degenerate, dims, test, surface, None)
+}
+
+/// [`solid_interior`] reporting the refined bricks as they are decided
+/// (`progress(done, total)`, from the worker threads).
+///
+/// # Errors
+/// As [`solid_interior`].
+pub fn solid_interior_with_progress(
+    triangles: &[SurfaceTriangle],
+    degenerate: &[SurfaceTriangle],
+    dims: Dims,
+    test: InsideTest,
+    surface: &BrickGrid,
+    progress: Option<&BrickProgress<'_>>,
 ) -> Result<(BrickGrid, SolidStats)> {
     for (i, t) in triangles.iter().enumerate() {
         for a in 0..3 {
@@ -457,14 +508,25 @@ pub fn solid_interior(
                     surface,
                     points: AtomicU64::new(0),
                     boxes: AtomicU64::new(0),
+                    far_ns: AtomicU64::new(0),
+                    near_ns: AtomicU64::new(0),
+                    slow_ns: AtomicU64::new(0),
+                    slow_points: AtomicU64::new(0),
+                    bricks_done: AtomicU64::new(0),
+                    bricks_total: AtomicU64::new(0),
+                    progress,
                 };
+                let t = std::time::Instant::now();
                 let mut rules = ctx.region_rules(Voxel::ZERO, top_size(dims));
                 rules.sort_unstable_by_key(|(k, _)| (k.z, k.y, k.x));
+                stats.regions_us = t.elapsed().as_micros() as u64;
                 stats.rule_bricks = rules.len();
                 stats.refined_bricks = rules
                     .iter()
                     .filter(|(_, r)| *r == BrickRule::Refine)
                     .count();
+                ctx.bricks_total
+                    .store(stats.refined_bricks as u64, Ordering::Relaxed);
                 let out = fill_interior(
                     &closed,
                     dims,
@@ -476,6 +538,10 @@ pub fn solid_interior(
                 );
                 stats.point_queries = ctx.points.load(Ordering::Relaxed);
                 stats.box_queries = ctx.boxes.load(Ordering::Relaxed);
+                stats.straddling = ctx.slow_points.load(Ordering::Relaxed);
+                stats.far_field_us = ctx.far_ns.load(Ordering::Relaxed) / 1000;
+                stats.near_field_us = ctx.near_ns.load(Ordering::Relaxed) / 1000;
+                stats.refine_us = ctx.slow_ns.load(Ordering::Relaxed) / 1000;
                 out
             }
         }
@@ -514,38 +580,28 @@ fn centre_box(lo: Voxel, size: i32, dims: Dims) -> Option<(DVec3, DVec3)> {
     Some((lo.as_dvec3(), hi.as_dvec3()))
 }
 
-/// Which surface a box of centres does not meet (so that a part of `w` is
-/// smooth in it).
-#[derive(Clone, Copy)]
-enum Across {
-    /// No mesh triangle: `w` itself is smooth.
-    Mesh,
-    /// No cap: `w_{S'}` is smooth.
-    Caps,
-}
-
-/// How a box's voxels get their winding number.
-#[derive(Clone, Copy)]
-enum WindingAt {
-    /// The voxel's line value plus this (`w_{S'}`).
-    Offset(f64),
-    /// This, for every voxel (the box is decided on `w_S` itself).
-    Whole(f64),
-}
-
 /// The octree over the grid that finds each brick's rule, and the refiner
 /// of the bricks it leaves undecided.
 struct Classifier<'a> {
     /// The caps `S'`.
     caps: WindingTree,
-    /// The mesh `S` itself: its winding number is continuous across the caps
-    /// (so boxes that meet a cap but not the mesh are decided on it), and it
-    /// decides centres lying exactly on a cap.
+    /// The mesh `S` itself: it decides centres lying exactly on a cap (its
+    /// winding number is continuous across the caps).
     mesh: WindingTree,
     dims: Dims,
     surface: &'a BrickGrid,
     points: AtomicU64,
     boxes: AtomicU64,
+    /// Time (ns, summed over threads) in the far field, the near field and
+    /// the per-point path of the refined bricks.
+    far_ns: AtomicU64,
+    near_ns: AtomicU64,
+    slow_ns: AtomicU64,
+    /// Centres the brick's bounds left to the per-point path.
+    slow_points: AtomicU64,
+    bricks_done: AtomicU64,
+    bricks_total: AtomicU64,
+    progress: Option<&'a BrickProgress<'a>>,
 }
 
 impl Classifier<'_> {
@@ -623,90 +679,6 @@ impl Classifier<'_> {
                 .collect()
         }
     }
-
-    /// Decides the cube `[lo, lo + size)` of the brick at `brick_lo`.
-    #[allow(clippy::too_many_arguments)]
-    fn refine_cube(
-        &self,
-        brick_lo: Voxel,
-        lo: Voxel,
-        size: i32,
-        m: &[Option<i32>; 512],
-        mask: &mut BrickMask,
-        ambiguous: &mut u64,
-    ) {
-        let Some((blo, bhi)) = centre_box(lo, size, self.dims) else {
-            return;
-        };
-        let (a, b) = (blo.as_ivec3() - brick_lo, bhi.as_ivec3() - brick_lo);
-        let slots = move || {
-            (a.z..=b.z).flat_map(move |z| {
-                (a.y..=b.y)
-                    .flat_map(move |y| (a.x..=b.x).map(move |x| (x + 8 * y + 64 * z) as usize))
-            })
-        };
-        // `w` at each voxel: the line value plus an offset, or one value for all.
-        let apply = |w_of: WindingAt, mask: &mut BrickMask, ambiguous: &mut u64| {
-            for i in slots() {
-                let Some(mv) = m[i] else { continue };
-                let w = match w_of {
-                    WindingAt::Offset(o) => mv as f64 + o,
-                    WindingAt::Whole(w) => w,
-                };
-                self.set(brick_lo, i, w, mask, ambiguous);
-            }
-        };
-        if size == 1 {
-            match self.cap_point(blo) {
-                Some(v) => apply(WindingAt::Offset(v), mask, ambiguous),
-                None => apply(WindingAt::Whole(self.mesh_winding(blo)), mask, ambiguous),
-            }
-            return;
-        }
-        match self.caps_bound(blo, bhi) {
-            Some(e) if decided(e) => return apply(WindingAt::Offset(e.value), mask, ambiguous),
-            // No cap in the box: the caps' w is smooth in it.
-            Some(_)
-                if size >= 4
-                    && self.interpolate(brick_lo, blo, bhi, Across::Caps, m, mask, ambiguous) =>
-            {
-                return;
-            }
-            Some(_) => {}
-            // A box meeting a cap but not the mesh: w is smooth in it, so one
-            // centre's w (line value + caps) and the rim's gradient bound it.
-            None if !self.mesh.meets_box(blo, bhi) => {
-                let grad = self.caps.gradient_bound(blo, bhi);
-                let diameter = (bhi - blo).length();
-                let probe = slots().find_map(|i| {
-                    let mv = m[i]?;
-                    let q = brick_lo.as_dvec3()
-                        + DVec3::new((i % 8) as f64, (i / 8 % 8) as f64, (i / 64) as f64);
-                    let e = self.caps_point(q, BETAS[0])?;
-                    Some(Estimate {
-                        value: mv as f64 + e.value,
-                        error: e.error + diameter * grad,
-                    })
-                });
-                if let Some(w) = probe
-                    && (w.value - 0.5).abs() > w.error
-                {
-                    return apply(WindingAt::Whole(w.value), mask, ambiguous);
-                }
-                if size >= 4
-                    && self.interpolate(brick_lo, blo, bhi, Across::Mesh, m, mask, ambiguous)
-                {
-                    return;
-                }
-            }
-            None => {}
-        }
-        let half = size / 2;
-        for c in 0..8 {
-            let child = lo + Voxel::new(c & 1, (c >> 1) & 1, c >> 2) * half;
-            self.refine_cube(brick_lo, child, half, m, mask, ambiguous);
-        }
-    }
 }
 
 impl Classifier<'_> {
@@ -732,95 +704,146 @@ impl Classifier<'_> {
             }
         }
     }
-
-    /// Decides the box of centres `[blo, bhi]` from a smooth part of `w` at
-    /// its 8 corners: the trilinear interpolant errs by at most
-    /// `Σᵢ hᵢ²/8 · max|∂²/∂xᵢ²|`, bounded by the rim's
-    /// [`WindingTree::hessian_bound`] (the mesh's and the caps' winding
-    /// numbers share their rim). [`Across::Mesh`]: the box meets no mesh
-    /// triangle, so `w` itself is smooth; [`Across::Caps`]: it meets no cap,
-    /// so `w_{S'}` is, and each voxel adds its line value. Voxels the
-    /// interpolant does not decide are evaluated one by one. `false`
-    /// (nothing written) when a corner lies on a cap.
-    #[allow(clippy::too_many_arguments)]
-    fn interpolate(
-        &self,
-        brick_lo: Voxel,
-        blo: DVec3,
-        bhi: DVec3,
-        smooth: Across,
-        m: &[Option<i32>; 512],
-        mask: &mut BrickMask,
-        ambiguous: &mut u64,
-    ) -> bool {
-        let index = |q: DVec3| {
-            let l = q.as_ivec3() - brick_lo;
-            (l.x + 8 * l.y + 64 * l.z) as usize
-        };
-        let ext = bhi - blo;
-        let hessian = self.caps.hessian_bound(blo, bhi);
-        if !hessian.is_finite() {
-            return false;
-        }
-        let mut corner = [0.0f64; 8];
-        let mut error: f64 = 0.0;
-        for (c, w) in corner.iter_mut().enumerate() {
-            let t = DVec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, (c >> 2) as f64);
-            let q = blo + ext * t;
-            let (Some(mv), Some(e)) = (m[index(q)], self.caps_point(q, BETAS[1])) else {
-                return false;
-            };
-            *w = match smooth {
-                Across::Mesh => mv as f64 + e.value,
-                Across::Caps => e.value,
-            };
-            error = error.max(e.error);
-        }
-        error += ext.length_squared() / 8.0 * hessian;
-        let (a, b) = (blo.as_ivec3(), bhi.as_ivec3());
-        for z in a.z..=b.z {
-            for y in a.y..=b.y {
-                for x in a.x..=b.x {
-                    let q = Voxel::new(x, y, z).as_dvec3();
-                    let t = ((q - blo) / ext.max(DVec3::splat(1.0))).clamp(DVec3::ZERO, DVec3::ONE);
-                    let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
-                    let c = |k: usize| corner[k];
-                    let w = lerp(
-                        lerp(lerp(c(0), c(1), t.x), lerp(c(2), c(3), t.x), t.y),
-                        lerp(lerp(c(4), c(5), t.x), lerp(c(6), c(7), t.x), t.y),
-                        t.z,
-                    );
-                    let i = index(q);
-                    let Some(mv) = m[i] else { continue };
-                    let w = match smooth {
-                        Across::Mesh => w,
-                        Across::Caps => mv as f64 + w,
-                    };
-                    let w = if (w - 0.5).abs() > error {
-                        w
-                    } else {
-                        match self.cap_point(q) {
-                            Some(v) => mv as f64 + v,
-                            None => self.mesh_winding(q),
-                        }
-                    };
-                    self.set(brick_lo, i, w, mask, ambiguous);
-                }
-            }
-        }
-        true
-    }
 }
 
 impl BrickRefiner for Classifier<'_> {
+    /// A brick the region octree left undecided, by the fast multipole
+    /// scheme: the caps' far field over the brick as one local expansion
+    /// (one tree traversal per brick), refined for its 4³ and 2³ sub-cubes
+    /// from the parent's near list only (a dual-tree traversal with the
+    /// brick's octree as the target tree), and the near field of each 2³
+    /// cube summed exactly for its 8 centres in vector lanes. A centre whose
+    /// `m + w_{S'}` is more than the accumulated error bound from ½ is
+    /// decided there; the rest (the bound straddles ½, or the centre may lie
+    /// in a cap's plane) go on to [`Classifier::cap_point`].
     fn refine(&self, key: Voxel, m: &[Option<i32>; 512]) -> (BrickMask, u64) {
         let (mut mask, mut ambiguous) = ([0u64; 8], 0);
-        // The whole brick was undecided already (`region_rules`).
         let lo = key * 8;
+        let Some((blo, bhi)) = centre_box(lo, 8, self.dims) else {
+            return (mask, ambiguous);
+        };
+        let t = std::time::Instant::now();
+        let far = self.caps.far_field(blo, bhi, BRICK_BETA);
+        let (mut near1, mut near2) = (Vec::new(), Vec::new());
+        let mut cubes = Vec::with_capacity(64);
         for c in 0..8 {
-            let child = lo + Voxel::new(c & 1, (c >> 1) & 1, c >> 2) * 4;
-            self.refine_cube(lo, child, 4, m, &mut mask, &mut ambiguous);
+            let lo1 = lo + Voxel::new(c & 1, (c >> 1) & 1, c >> 2) * 4;
+            let Some((b1lo, b1hi)) = centre_box(lo1, 4, self.dims) else {
+                continue;
+            };
+            let mut l1 = far.local.recentred((b1lo + b1hi) * 0.5);
+            near1.clear();
+            self.caps
+                .split(&far.near, b1lo, b1hi, BRICK_BETA, &mut l1, &mut near1);
+            for g in 0..8 {
+                let lo2 = lo1 + Voxel::new(g & 1, (g >> 1) & 1, g >> 2) * 2;
+                let Some((b2lo, b2hi)) = centre_box(lo2, 2, self.dims) else {
+                    continue;
+                };
+                let mut l2 = l1.recentred((b2lo + b2hi) * 0.5);
+                let start = near2.len();
+                self.caps
+                    .split(&near1, b2lo, b2hi, BRICK_BETA, &mut l2, &mut near2);
+                cubes.push((lo2, l2, start..near2.len()));
+            }
+        }
+        let t_far = t.elapsed();
+        let mut slow = Vec::new();
+        for (lo2, local, range) in &cubes {
+            self.near_cube(
+                lo,
+                *lo2,
+                local,
+                &near2[range.clone()],
+                m,
+                &mut mask,
+                &mut ambiguous,
+                &mut slow,
+            );
+        }
+        let t_near = t.elapsed();
+        for &(i, mv) in &slow {
+            let q = (lo + slot_voxel(i)).as_dvec3();
+            let w = match self.cap_point(q) {
+                Some(v) => mv as f64 + v,
+                None => self.mesh_winding(q),
+            };
+            self.set(lo, i, w, &mut mask, &mut ambiguous);
+        }
+        let t_all = t.elapsed();
+        self.far_ns
+            .fetch_add(t_far.as_nanos() as u64, Ordering::Relaxed);
+        self.near_ns
+            .fetch_add((t_near - t_far).as_nanos() as u64, Ordering::Relaxed);
+        self.slow_ns
+            .fetch_add((t_all - t_near).as_nanos() as u64, Ordering::Relaxed);
+        self.slow_points
+            .fetch_add(slow.len() as u64, Ordering::Relaxed);
+        let done = self.bricks_done.fetch_add(1, Ordering::Relaxed) + 1;
+        if let Some(p) = self.progress {
+            p(done, self.bricks_total.load(Ordering::Relaxed));
         }
         (mask, ambiguous)
+    }
+}
+
+/// The offset in its brick of slot `i` (`x + 8y + 64z`).
+fn slot_voxel(i: usize) -> Voxel {
+    Voxel::new((i % 8) as i32, (i / 8 % 8) as i32, (i / 64) as i32)
+}
+
+impl Classifier<'_> {
+    /// Decides the 2³ cube at `lo2` of the brick at `brick_lo` from its far
+    /// field `local` and its near leaves: the centres the bound leaves
+    /// undecided are pushed onto `slow` (slot, line value).
+    #[allow(clippy::too_many_arguments)]
+    fn near_cube(
+        &self,
+        brick_lo: Voxel,
+        lo2: Voxel,
+        local: &LocalExpansion,
+        near: &[u32],
+        m: &[Option<i32>; 512],
+        mask: &mut BrickMask,
+        ambiguous: &mut u64,
+        slow: &mut Vec<(usize, i32)>,
+    ) {
+        let slots: [usize; LANES] = std::array::from_fn(|k| {
+            let l = lo2 - brick_lo + Voxel::new(k as i32 & 1, (k as i32 >> 1) & 1, k as i32 >> 2);
+            (l.x + 8 * l.y + 64 * l.z) as usize
+        });
+        // Centres the caller adds anyway (its surface) need no winding number.
+        let mut todo = [false; LANES];
+        for k in 0..LANES {
+            if m[slots[k]].is_some() {
+                let v = brick_lo + slot_voxel(slots[k]);
+                if self.surface.contains(v) {
+                    mask[slots[k] / 64] |= 1 << (slots[k] % 64);
+                } else {
+                    todo[k] = true;
+                }
+            }
+        }
+        if !todo.contains(&true) {
+            return;
+        }
+        let q: [DVec3; LANES] =
+            std::array::from_fn(|k| (brick_lo + slot_voxel(slots[k])).as_dvec3());
+        let (sum, flat, count) = self.caps.near_lanes(near, &q);
+        let error = local.error
+            + count as f64 * (2.0 * FAST_ATAN2_ERROR / (4.0 * std::f64::consts::PI))
+            + ROUNDING_SLACK;
+        for k in 0..LANES {
+            if !todo[k] {
+                continue;
+            }
+            let Some(mv) = m[slots[k]] else { continue };
+            let w = mv as f64 + local.eval(q[k]) + sum[k];
+            if !flat[k] && (w - 0.5).abs() > error {
+                self.set(brick_lo, slots[k], w, mask, ambiguous);
+            } else {
+                slow.push((slots[k], mv));
+            }
+        }
     }
 }
