@@ -1,15 +1,12 @@
 """The GIL is released while the library works.
 
-Two checks. The first does not depend on timing: calls made from two Python
-threads overlap in time, which they cannot if a call holds the GIL (the
-second thread could not even take its start time). The second is the
-issue's: with one worker thread per call (``threads=1``), two threads
-voxelizing at once take about the time of one on 2 cores. Timing on a
-shared machine is noisy, so it takes the best of three rounds against a
-loose bound, and is skipped when other processes already keep the cores
-busy."""
+Neither check measures speed (speed is for benchmarks: a timed test on a
+shared machine fails with the machine, not the code; the two-thread
+speed-up is measured by scripts/compare_python.py). Calls made from two
+Python threads overlap in time, which they cannot if a call holds the GIL
+(the second thread could not even take its start time); and the main
+thread keeps running Python while another is inside a long call."""
 
-import os
 import threading
 import time
 
@@ -76,36 +73,3 @@ def test_python_runs_during_a_call(bunny):
     inside = [x for x in ticks if t0 <= x <= t1]
     gaps = [b - a for a, b in zip([t0] + inside, inside + [t1])]
     assert max(gaps) < 0.5 * (t1 - t0), (max(gaps), t1 - t0)
-
-
-def idle_share(seconds=0.5):
-    """Share of CPU time idle over the next `seconds` (Linux /proc/stat; 1.0
-    elsewhere, where the load average decides instead)."""
-    def sample():
-        with open("/proc/stat") as fh:
-            v = [int(x) for x in fh.readline().split()[1:]]
-        return v[3] + v[4], sum(v)  # idle + iowait, total
-
-    try:
-        i0, t0 = sample()
-        time.sleep(seconds)
-        i1, t1 = sample()
-        return (i1 - i0) / max(t1 - t0, 1)
-    except OSError:
-        return 1.0 if os.getloadavg()[0] < 1.0 else 0.0
-
-
-def test_two_threads_take_about_the_time_of_one(bunny):
-    if (os.cpu_count() or 1) < 2:
-        pytest.skip("needs 2 cores")
-    idle = idle_share()
-    if idle < 0.8:
-        pytest.skip(f"machine busy (only {idle:.0%} of the CPUs idle): timing would measure the others")
-    timed_pair(bunny, 1, True)  # warm-up
-    ratios = []
-    for _ in range(3):
-        seq, _ = timed_pair(bunny, 1, False)
-        par, _ = timed_pair(bunny, 1, True)
-        ratios.append(par / seq)
-    # ~0.5 with the GIL released, ~1.0 if calls were serialized.
-    assert min(ratios) < 0.75, ratios
