@@ -137,6 +137,27 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<(), CliError> {
     }
 }
 
+/// The longest error line printed, in characters: a dependency's message
+/// can quote a whole JSON document or header.
+const MAX_ERROR_CHARS: usize = 600;
+
+/// `message` as one line of at most [`MAX_ERROR_CHARS`] characters: line
+/// breaks and other control characters become spaces (every reader's
+/// message is meant to be one line already; this keeps the contract when a
+/// dependency's text is not), and a longer message is cut with `…`.
+fn one_line(message: &str) -> String {
+    let mut out: String = message
+        .trim_end()
+        .chars()
+        .map(|c| if c.is_control() { ' ' } else { c })
+        .collect();
+    if let Some((cut, _)) = out.char_indices().nth(MAX_ERROR_CHARS) {
+        out.truncate(cut);
+        out.push('…');
+    }
+    out
+}
+
 /// Entry point of the binary: parses `std::env::args`, runs, and returns the
 /// process exit code.
 pub fn main() -> i32 {
@@ -156,8 +177,25 @@ pub fn main() -> i32 {
         Err(e) if e.is_quiet() => 0,
         Err(e) => {
             let _ = out.flush();
-            eprintln!("voxkit: {}", e.message);
+            eprintln!("voxkit: {}", one_line(&e.message));
             e.code
         }
+    }
+}
+
+#[cfg(test)]
+mod one_line_tests {
+    use super::*;
+
+    #[test]
+    fn messages_print_on_one_bounded_line() {
+        assert_eq!(
+            one_line("a.ply: line 3:\n  bad\r\n"),
+            "a.ply: line 3:   bad"
+        );
+        assert_eq!(one_line("x  y"), "x  y");
+        let long = one_line(&"é".repeat(2 * MAX_ERROR_CHARS));
+        assert_eq!(long.chars().count(), MAX_ERROR_CHARS + 1);
+        assert!(long.ends_with('…'));
     }
 }
