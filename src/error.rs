@@ -11,12 +11,15 @@ pub enum VoxkitError {
     /// Input that is malformed or outside the documented range
     /// (a NaN coordinate, a coordinate beyond ±2^30, a collinear triangle where
     /// one is not allowed, ...).
-    #[error("invalid input: {0}")]
+    #[error("invalid input: {}", printable(.0))]
     Invalid(String),
 
     /// A request that would need more memory than the configured limit.
     /// Raised *before* anything is allocated.
-    #[error("memory limit exceeded: {what} needs {needed} bytes, limit is {limit} bytes")]
+    #[error(
+        "memory limit exceeded: {} needs {needed} bytes, limit is {limit} bytes",
+        printable(.what)
+    )]
     Limits {
         /// What was about to be allocated.
         what: String,
@@ -27,11 +30,11 @@ pub enum VoxkitError {
     },
 
     /// A valid request that voxkit does not support.
-    #[error("not supported: {0}")]
+    #[error("not supported: {}", printable(.0))]
     Unsupported(String),
 
     /// An I/O failure, with the path it concerned.
-    #[error("{path}: {source}")]
+    #[error("{}: {source}", printable(&path.display().to_string()))]
     Io {
         /// The file involved.
         path: PathBuf,
@@ -39,6 +42,30 @@ pub enum VoxkitError {
         #[source]
         source: std::io::Error,
     },
+}
+
+/// `text` with its control characters escaped (`\r`, `\t`, `\0`,
+/// `\u{1b}`…): messages quote what a file says (a header line, a name), and a
+/// stray carriage return or NUL there must not break the message's one line
+/// or the terminal showing it.
+///
+/// ```
+/// assert_eq!(voxkit::error::printable("line `ply\r\0`"), "line `ply\\r\\0`");
+/// ```
+pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(char::is_control) {
+        return text.into();
+    }
+    text.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_debug().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect::<String>()
+        .into()
 }
 
 /// Result alias used across the crate.
