@@ -512,9 +512,9 @@ mod tests {
                 .entry(root(&mut parent, i))
                 .or_insert(([i64::MAX; 3], [i64::MIN; 3]));
             for &v in f {
-                for a in 0..3 {
-                    b.0[a] = b.0[a].min(q[v as usize][a]);
-                    b.1[a] = b.1[a].max(q[v as usize][a]);
+                for (a, &c) in q[v as usize].iter().enumerate() {
+                    b.0[a] = b.0[a].min(c);
+                    b.1[a] = b.1[a].max(c);
                 }
             }
         }
