@@ -67,6 +67,7 @@ pub mod metric;
 pub mod render;
 pub mod report;
 pub mod stability;
+pub mod tiled;
 pub mod topology;
 pub mod triangle;
 pub mod voxelize;

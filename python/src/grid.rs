@@ -508,7 +508,7 @@ pub fn voxelize(
     Ok(Grid::new(v.grid, v.frame, Some(v.stats), snap))
 }
 
-/// Reads a voxel file (`.binvox`, `.vox`, `.npy`, `.nrrd`).
+/// Reads a voxel file (`.binvox`, `.vox`, `.npy`, `.nrrd`) or OME-Zarr store (`.zarr`).
 #[pyfunction]
 #[pyo3(signature = (path, max_memory_mib = 4096))]
 pub fn load_grid(py: Python<'_>, path: PathBuf, max_memory_mib: u64) -> PyResult<Grid> {
@@ -555,4 +555,73 @@ pub fn measure_indices<'py>(
         )
     })?;
     measures_dict(py, &m)
+}
+
+/// Options of a tiled run (`--voxel-size H --origin X,Y,Z`, mode, inside).
+fn tiled_options(
+    voxel_size: f64,
+    origin: Option<[f64; 3]>,
+    mode: &str,
+    inside: &str,
+    max_memory_mib: u64,
+) -> PyResult<VoxelizeOptions> {
+    let mut opts = VoxelizeOptions::on_lattice(
+        Lattice::VoxelSize {
+            voxel_size,
+            origin: convert::vec3(origin),
+        },
+        mode_of(mode)?,
+    );
+    opts.inside = inside_of(inside)?;
+    opts.limit = limit_of(max_memory_mib);
+    Ok(opts)
+}
+
+/// Plans a tiled run into an OME-Zarr store (`voxkit voxelize … --plan`):
+/// writes the store's metadata and returns the plan as a JSON string.
+#[pyfunction]
+#[pyo3(signature = (mesh_path, store, voxel_size, origin, tile_size, mode = "thin", inside = "winding", force = false, max_memory_mib = 4096))]
+#[allow(clippy::too_many_arguments)]
+pub fn plan_tiles(
+    py: Python<'_>,
+    mesh_path: PathBuf,
+    store: PathBuf,
+    voxel_size: f64,
+    origin: Option<[f64; 3]>,
+    tile_size: u32,
+    mode: &str,
+    inside: &str,
+    force: bool,
+    max_memory_mib: u64,
+) -> PyResult<String> {
+    let opts = tiled_options(voxel_size, origin, mode, inside, max_memory_mib)?;
+    let j = run(py, || {
+        voxkit::tiled::plan(&mesh_path, &store, &opts, tile_size, force)
+    })?;
+    Ok(j.to_string())
+}
+
+/// Voxelizes one tile into a planned store (`voxkit voxelize … --tile
+/// I,J,K`) and returns its report as a JSON string.
+#[pyfunction]
+#[pyo3(signature = (mesh_path, store, voxel_size, origin, tile_size, tile, mode = "thin", inside = "winding", max_memory_mib = 4096, threads = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn voxelize_tile(
+    py: Python<'_>,
+    mesh_path: PathBuf,
+    store: PathBuf,
+    voxel_size: f64,
+    origin: Option<[f64; 3]>,
+    tile_size: u32,
+    tile: [u32; 3],
+    mode: &str,
+    inside: &str,
+    max_memory_mib: u64,
+    threads: Option<usize>,
+) -> PyResult<String> {
+    let opts = tiled_options(voxel_size, origin, mode, inside, max_memory_mib)?;
+    let j = run_threads(py, threads, || {
+        voxkit::tiled::run_tile(&mesh_path, &store, &opts, tile_size, tile)
+    })?;
+    Ok(j.to_string())
 }

@@ -134,6 +134,8 @@ fn _voxkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grid::voxelize, m)?)?;
     m.add_function(wrap_pyfunction!(grid::load_grid, m)?)?;
     m.add_function(wrap_pyfunction!(grid::measure_indices, m)?)?;
+    m.add_function(wrap_pyfunction!(grid::plan_tiles, m)?)?;
+    m.add_function(wrap_pyfunction!(grid::voxelize_tile, m)?)?;
     m.add_function(wrap_pyfunction!(lines::line, m)?)?;
     m.add_function(wrap_pyfunction!(lines::lines, m)?)?;
     m.add_function(wrap_pyfunction!(render::render_grid, m)?)?;

@@ -134,7 +134,7 @@ def test_input_dtypes_and_layouts_give_the_same_voxels():
     assert abs(len(g32) - len(ref)) < 0.01 * len(ref)
 
 
-@pytest.mark.parametrize("ext", ["binvox", "vox", "npy", "nrrd"])
+@pytest.mark.parametrize("ext", ["binvox", "vox", "npy", "nrrd", "zarr"])
 def test_save_and_load_grid_round_trip(tmp_path, ext):
     g = voxkit.voxelize(*voxkit.load_mesh(TEAPOT), resolution=50, mode="thick")
     p = tmp_path / f"t.{ext}"
@@ -144,6 +144,8 @@ def test_save_and_load_grid_round_trip(tmp_path, ext):
     assert back.dims == ((max(g.dims),) * 3 if ext == "binvox" else g.dims)
     assert np.array_equal(back.indices(), g.indices())
     assert back.stats is None
+    if ext == "zarr":
+        assert np.array_equal(back.origin, g.origin) and back.voxel_size == g.voxel_size
     if ext in ("binvox", "nrrd"):
         np.testing.assert_allclose(back.origin, g.origin, rtol=1e-6)
         assert back.voxel_size == pytest.approx(g.voxel_size, rel=1e-6)

@@ -189,9 +189,12 @@ class VoxelGrid:
 
     def save(self, path: PathLike, *, overwrite: bool = True) -> None:
         """Write the grid; the extension picks the format: ``.binvox``,
-        ``.vox`` (MagicaVoxel), ``.npy`` (uint8 ``[nx, ny, nz]``), ``.nrrd``.
-        The write is atomic; with ``overwrite=False`` an existing file is a
-        ``FileExistsError``. binvox and NRRD keep the world frame."""
+        ``.vox`` (MagicaVoxel), ``.npy`` (uint8 ``[nx, ny, nz]``), ``.nrrd``,
+        or ``.zarr``: an OME-Zarr 0.5 store (a directory; uint8 0/1 array
+        ``0`` with axes z, y, x, 64³ chunks in 512³ shards, readable by
+        zarr-python 3, ``dask.array.from_zarr`` and OME-Zarr viewers). The
+        write is atomic; with ``overwrite=False`` an existing file is a
+        ``FileExistsError``. binvox, NRRD and Zarr keep the world frame."""
         path = os.fspath(path)
         if not overwrite and os.path.exists(path):
             raise FileExistsError(errno.EEXIST, "file exists (save(..., overwrite=True) replaces it)", path)
@@ -325,7 +328,8 @@ def voxelize(
 def load_grid(path: PathLike, *, max_memory_mib: int = 4096) -> VoxelGrid:
     """Read a voxel file written by :meth:`VoxelGrid.save`, ``voxkit voxelize``
     or another tool: ``.binvox``, ``.vox``, ``.npy`` (3D, nonzero = set),
-    ``.nrrd``."""
+    ``.nrrd``, or a Zarr v3 / OME-Zarr store ``.zarr`` (array ``0``, z, y, x,
+    uint8 or bool, nonzero = set; only the chunks present are read)."""
     return VoxelGrid(_voxkit.load_grid(os.fspath(path), int(max_memory_mib)))
 
 

@@ -39,6 +39,29 @@ def voxelize(
     inside: str = "winding",
 ) -> Grid: ...
 def load_grid(path: str, max_memory_mib: int = 4096) -> Grid: ...
+def plan_tiles(
+    mesh_path: str,
+    store: str,
+    voxel_size: float,
+    origin: Optional[Vec3],
+    tile_size: int,
+    mode: str = "thin",
+    inside: str = "winding",
+    force: bool = False,
+    max_memory_mib: int = 4096,
+) -> str: ...
+def voxelize_tile(
+    mesh_path: str,
+    store: str,
+    voxel_size: float,
+    origin: Optional[Vec3],
+    tile_size: int,
+    tile: Tuple[int, int, int],
+    mode: str = "thin",
+    inside: str = "winding",
+    max_memory_mib: int = 4096,
+    threads: Optional[int] = None,
+) -> str: ...
 def measure_indices(
     vertices: np.ndarray,
     faces: np.ndarray,

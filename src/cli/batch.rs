@@ -1,5 +1,5 @@
 //! Batch mode of `voxkit voxelize`: `voxkit voxelize DIR|GLOB|MESH… -o OUTDIR
-//! [--format binvox|vox|npy|nrrd]` with the single-mesh options
+//! [--format binvox|vox|npy|nrrd|zarr]` with the single-mesh options
 //! (`-r N` or `--voxel-size H [--origin X,Y,Z]`, `--mode`, `--snap`, …).
 //!
 //! Batch mode is chosen by more than one input, or by an input that is a
@@ -90,7 +90,7 @@ use std::time::Instant;
 
 use super::CliError;
 use super::voxelize::{VoxelizeArgs, peak_rss_mib, result_json, voxelize_options};
-use crate::io::write_voxels_limited;
+use crate::io::{process_gone, remove_temp_files};
 use crate::mesh::{Mesh, is_mesh_path};
 use crate::voxelize::pipeline::{PreparedMesh, VoxelizeOptions, prepare_mesh};
 
@@ -344,7 +344,7 @@ fn voxelize_one(ctx: &Context, input: &Path, output: &Path) -> Result<serde_json
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     }
     let t = Instant::now();
-    write_voxels_limited(output, &v.grid, &v.frame, ctx.args.force, ctx.opts.limit)
+    super::voxelize::write_output(ctx.args, output, &v, ctx.opts.limit)
         .map_err(|e| e.to_string())?;
     let write_ms = ms(t);
     let json = result_json(
@@ -391,53 +391,6 @@ fn contained(job: impl FnOnce() -> Result<serde_json::Value, String>) -> Outcome
             Outcome::Failed(format!("internal error (panic): {msg}"))
         }
     }
-}
-
-/// Removes the temporary files of `output` (`.NAME.PID.N.tmp` beside it, as
-/// [`crate::io::atomic_write`] names them) whose writer process `dead` says
-/// is gone.
-fn remove_temp_files(output: &Path, dead: impl Fn(u32) -> bool) {
-    let (Some(dir), Some(name)) = (output.parent(), output.file_name()) else {
-        return;
-    };
-    let prefix = format!(".{}.", name.to_string_lossy());
-    let Ok(listing) = std::fs::read_dir(if dir.as_os_str().is_empty() {
-        Path::new(".")
-    } else {
-        dir
-    }) else {
-        return;
-    };
-    for item in listing.flatten() {
-        let file = item.file_name();
-        let file = file.to_string_lossy();
-        let Some(rest) = file
-            .strip_prefix(&prefix)
-            .and_then(|r| r.strip_suffix(".tmp"))
-        else {
-            continue;
-        };
-        let mut parts = rest.split('.');
-        let (Some(pid), Some(n), None) = (parts.next(), parts.next(), parts.next()) else {
-            continue;
-        };
-        if n.parse::<u64>().is_err() {
-            continue;
-        }
-        if let Ok(pid) = pid.parse::<u32>()
-            && dead(pid)
-        {
-            let _ = std::fs::remove_file(item.path());
-        }
-    }
-}
-
-/// Whether process `pid` is gone (Linux: no `/proc/PID`); elsewhere no
-/// process is known to be gone.
-fn process_gone(pid: u32) -> bool {
-    Path::new("/proc/self").exists()
-        && pid != std::process::id()
-        && !Path::new("/proc").join(pid.to_string()).exists()
 }
 
 /// Removes temporary files that killed runs left beside the outputs: one

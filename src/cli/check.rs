@@ -41,7 +41,7 @@ use crate::topology::tunnels::closed_surface_tunnels;
 /// Arguments of `voxkit check`.
 #[derive(Debug, clap::Args)]
 pub struct CheckArgs {
-    /// The voxel file (.binvox, .vox, .npy, .nrrd).
+    /// The voxel file (.binvox, .vox, .npy, .nrrd) or OME-Zarr store (.zarr).
     pub grid: PathBuf,
     /// Connectivity of the empty paths searched: 6 or 26.
     #[arg(long, value_name = "6|26", value_parser = clap::builder::PossibleValuesParser::new(["6", "26"]))]

@@ -16,6 +16,7 @@ pub mod line;
 mod measure;
 pub(crate) mod render;
 mod report;
+mod tiles;
 mod triangle;
 mod voxelize;
 

@@ -58,7 +58,7 @@ Meshes and binvox/npy/NRRD grids are taken as Y-up, scalar volumes and .vox file
 (override with --up)."
 )]
 pub struct RenderArgs {
-    /// Input: .binvox, .vox, .npy, .nrrd, .nhdr, .mhd/.mha, or a mesh (.obj, .gltf, .glb, .ply, .stl, .off).
+    /// Input: .binvox, .vox, .npy, .nrrd, .zarr (OME-Zarr store), .nhdr, .mhd/.mha, or a mesh (.obj, .gltf, .glb, .ply, .stl, .off).
     pub input: PathBuf,
     /// Output PNG (with --turntable N: a .gif, or a PNG name numbered per frame).
     #[arg(short = 'o', long = "output", value_name = "OUT.png")]
@@ -267,7 +267,7 @@ fn load(
             scene.colors = Some(vox.colors);
             Ok(Input::Grid(Box::new(scene)))
         }
-        "binvox" => {
+        "binvox" | "zarr" => {
             let (grid, frame, w) = crate::io::read_voxels_warned(path, limit)?;
             super::print_warnings(path, &w);
             warnings.extend(w);

@@ -1,8 +1,13 @@
 //! `voxkit voxelize MESH (-r N | --voxel-size H [--origin X,Y,Z]) -o OUT [--mode thin|thick|conservative|solid] [--snap [--kahan-kelsen]] [--json] [--measure] [--force] [--max-memory MIB] [-q]`
 //!
 //! Loads a mesh, voxelizes it ([`voxelize_mesh`]) and writes a
-//! `.binvox`, `.vox`, `.npy` or `.nrrd` file (by extension). An existing
-//! output is refused without `--force` (exit 2, checked before any work).
+//! `.binvox`, `.vox`, `.npy` or `.nrrd` file or an OME-Zarr store `.zarr`
+//! (by extension; `--pyramid` adds the store's max-pooled levels). An
+//! existing output is refused without `--force` (exit 2, checked before any
+//! work).
+//!
+//! `--tile-size N --plan` / `--tile I,J,K` run one grid in tiles into one
+//! store ([`super::tiles`], [`crate::tiled`]).
 //!
 //! Several inputs, a directory or a glob pattern select batch mode
 //! (`voxkit voxelize DIR|GLOB|MESH… -o OUTDIR [--format FORMAT]`,
@@ -78,6 +83,8 @@ pub enum FormatArg {
     Npy,
     /// `.nrrd`.
     Nrrd,
+    /// OME-Zarr store (a directory).
+    Zarr,
 }
 
 impl FormatArg {
@@ -88,6 +95,7 @@ impl FormatArg {
             FormatArg::Vox => "vox",
             FormatArg::Npy => "npy",
             FormatArg::Nrrd => "nrrd",
+            FormatArg::Zarr => "zarr",
         }
     }
 }
@@ -117,14 +125,31 @@ pub struct VoxelizeArgs {
     /// mesh's bounding-box min.
     #[arg(long, value_name = "X,Y,Z", requires = "voxel_size", value_parser = super::render::parse_vec3, allow_hyphen_values = true)]
     pub origin: Option<glam::DVec3>,
-    /// Output file (.binvox, .vox, .npy, .nrrd); in batch mode the output
-    /// directory (created if missing).
+    /// Output file (.binvox, .vox, .npy, .nrrd) or OME-Zarr store (.zarr, a
+    /// directory); in batch mode the output directory (created if missing).
     #[arg(short = 'o', long = "output", value_name = "OUT")]
     pub output: PathBuf,
     /// Batch mode: the format of every output [default: binvox]. (A single
     /// mesh's format is its output's extension.)
     #[arg(long, value_enum, value_name = "FORMAT")]
     pub format: Option<FormatArg>,
+    /// Tiled runs into a .zarr store: the edge of a tile in voxels (a
+    /// multiple of 512, one shard). With --plan or --tile.
+    #[arg(long, value_name = "N")]
+    pub tile_size: Option<u32>,
+    /// With --tile-size: write the store's metadata and print (JSON) the
+    /// tiles whose box meets the mesh; voxelize nothing.
+    #[arg(long, requires = "tile_size", conflicts_with = "tile")]
+    pub plan: bool,
+    /// With --tile-size: voxelize tile I,J,K alone into the planned store
+    /// (its shards only, never the metadata); its voxels are those of the
+    /// whole-grid run there.
+    #[arg(long, value_name = "I,J,K", requires = "tile_size", value_parser = super::tiles::parse_tile)]
+    pub tile: Option<[u32; 3]>,
+    /// With a .zarr output: also write multiscale levels 1, 2, … (occupancy
+    /// max-pooled by 2 per level) until the largest extent fits 64 voxels.
+    #[arg(long)]
+    pub pyramid: bool,
     /// Which voxel set.
     #[arg(long, value_enum, default_value = "thin")]
     pub mode: ModeArg,
@@ -159,12 +184,7 @@ pub struct VoxelizeArgs {
 }
 
 /// Peak resident set size in MiB (VmHWM), where `/proc` has it.
-pub fn peak_rss_mib() -> Option<f64> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb / 1024.0)
-}
+pub use crate::tiled::peak_rss_mib;
 
 /// Adds the `--measure` keys (`measure_ms`, `reference_voxels`, `missing`,
 /// `extra`, `max_distance`, `mean_distance`, `far_voxels`, `closed`,
@@ -284,9 +304,33 @@ pub(super) fn result_json(
     j
 }
 
+/// Writes one voxelization to `output` (format by extension; a `.zarr`
+/// store with its pyramid when `--pyramid`), shared by single-mesh and
+/// batch mode.
+pub(super) fn write_output(
+    args: &VoxelizeArgs,
+    output: &Path,
+    v: &Voxelization,
+    limit: MemoryLimit,
+) -> crate::error::Result<()> {
+    if crate::io::zarr::is_zarr_path(output) {
+        let levels = if args.pyramid {
+            crate::io::zarr::pyramid_levels(v.frame.dims)
+        } else {
+            1
+        };
+        v.grid.check_inside(v.frame.dims)?;
+        return crate::io::zarr::write(output, &v.grid, &v.frame, args.force, levels).map(|_| ());
+    }
+    write_voxels_limited(output, &v.grid, &v.frame, args.force, limit)
+}
+
 /// Runs `voxkit voxelize`: batch mode ([`super::batch`]) for several inputs,
 /// a directory or a glob pattern, otherwise one mesh.
 pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
+    if args.tile_size.is_some() {
+        return super::tiles::run(&args, out);
+    }
     if super::batch::is_batch(&args.inputs) {
         return super::batch::run(&args, out);
     }
@@ -297,6 +341,9 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
     }
     let mesh_path = &args.inputs[0];
     VoxelFormat::from_path(&args.output)?;
+    if args.pyramid && !crate::io::zarr::is_zarr_path(&args.output) {
+        return Err(CliError::bad_input("--pyramid applies to a .zarr output"));
+    }
     let mut opts = voxelize_options(&args)?;
     if !args.force && args.output.exists() {
         return Err(CliError::bad_input(format!(
@@ -344,7 +391,7 @@ pub fn run(args: VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliError> {
         b.set_message("write");
     }
     let t = Instant::now();
-    let written = write_voxels_limited(&args.output, &v.grid, &v.frame, args.force, limit);
+    let written = write_output(&args, &args.output, &v, limit);
     let write_ms = ms(t);
     let measured = if args.measure && written.is_ok() {
         if let Some(b) = &bar {

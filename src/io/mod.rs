@@ -9,6 +9,7 @@ pub mod nrrd;
 pub mod volume;
 pub mod vox;
 mod voxels;
+pub mod zarr;
 
 pub use voxels::{
     VoxelFormat, read_voxels, read_voxels_warned, write_voxels, write_voxels_limited,
@@ -92,7 +93,7 @@ impl Drop for RemoveOnDrop {
 
 /// A temporary name beside `path`: same directory (so the rename is atomic),
 /// hidden, unique per process and call.
-fn temp_path(path: &Path) -> PathBuf {
+pub(crate) fn temp_path(path: &Path) -> PathBuf {
     use std::sync::atomic::{AtomicU64, Ordering};
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
@@ -105,6 +106,58 @@ fn temp_path(path: &Path) -> PathBuf {
         Some(dir) if !dir.as_os_str().is_empty() => dir.join(tmp_name),
         _ => PathBuf::from(tmp_name),
     }
+}
+
+/// Removes the temporary files of `output` (`.NAME.PID.N.tmp` beside it, as
+/// [`atomic_write`] names them) whose writer process `dead` says
+/// is gone.
+pub(crate) fn remove_temp_files(output: &Path, dead: impl Fn(u32) -> bool) {
+    let (Some(dir), Some(name)) = (output.parent(), output.file_name()) else {
+        return;
+    };
+    let prefix = format!(".{}.", name.to_string_lossy());
+    let Ok(listing) = std::fs::read_dir(if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    }) else {
+        return;
+    };
+    for item in listing.flatten() {
+        let file = item.file_name();
+        let file = file.to_string_lossy();
+        let Some(rest) = file
+            .strip_prefix(&prefix)
+            .and_then(|r| r.strip_suffix(".tmp"))
+        else {
+            continue;
+        };
+        let mut parts = rest.split('.');
+        let (Some(pid), Some(n), None) = (parts.next(), parts.next(), parts.next()) else {
+            continue;
+        };
+        if n.parse::<u64>().is_err() {
+            continue;
+        }
+        if let Ok(pid) = pid.parse::<u32>()
+            && dead(pid)
+        {
+            // A store (`.zarr`) is built in a temporary directory.
+            let _ = if item.path().is_dir() {
+                std::fs::remove_dir_all(item.path())
+            } else {
+                std::fs::remove_file(item.path())
+            };
+        }
+    }
+}
+
+/// Whether process `pid` is gone (Linux: no `/proc/PID`); elsewhere no
+/// process is known to be gone.
+pub(crate) fn process_gone(pid: u32) -> bool {
+    Path::new("/proc/self").exists()
+        && pid != std::process::id()
+        && !Path::new("/proc").join(pid.to_string()).exists()
 }
 
 impl From<std::io::Error> for VoxkitError {

@@ -27,6 +27,8 @@ pub enum VoxelFormat {
     Npy,
     /// `.nrrd` ([`super::nrrd`]).
     Nrrd,
+    /// An OME-Zarr store, a directory `.zarr` ([`super::zarr`]).
+    Zarr,
 }
 
 impl VoxelFormat {
@@ -42,9 +44,10 @@ impl VoxelFormat {
             "vox" => VoxelFormat::Vox,
             "npy" => VoxelFormat::Npy,
             "nrrd" => VoxelFormat::Nrrd,
+            "zarr" => VoxelFormat::Zarr,
             _ => {
                 return Err(VoxkitError::Unsupported(format!(
-                    "{}: unknown voxel format (expected .binvox, .vox, .npy or .nrrd)",
+                    "{}: unknown voxel format (expected .binvox, .vox, .npy, .nrrd or .zarr)",
                     path.display()
                 )));
             }
@@ -64,7 +67,7 @@ impl VoxelFormat {
 /// std::fs::create_dir_all(&dir).unwrap();
 /// let grid: BrickGrid = [IVec3::new(1, 2, 3), IVec3::new(0, 0, 0)].into_iter().collect();
 /// let frame = GridFrame::new(DVec3::new(-1.0, 0.5, 2.0), 0.25, [4, 5, 6]);
-/// for ext in ["binvox", "vox", "npy", "nrrd"] {
+/// for ext in ["binvox", "vox", "npy", "nrrd", "zarr"] {
 ///     let path = dir.join(format!("g.{ext}"));
 ///     write_voxels(&path, &grid, &frame, true).unwrap();
 ///     let (back, _frame) = read_voxels(&path, MemoryLimit::DEFAULT).unwrap();
@@ -92,11 +95,18 @@ pub fn write_voxels_limited(
     let format = VoxelFormat::from_path(path)?;
     check_frame(frame)?;
     grid.check_inside(frame.dims)?;
+    if format == VoxelFormat::Zarr {
+        return super::zarr::write(path, grid, frame, overwrite, 1).map(|_| ());
+    }
     super::atomic_write(path, overwrite, |w| match format {
         VoxelFormat::Binvox => super::binvox::write(w, grid, frame, limit),
         VoxelFormat::Vox => super::vox::write(w, grid, frame),
         VoxelFormat::Npy => super::npy::write(w, grid, frame, limit),
         VoxelFormat::Nrrd => super::nrrd::write(w, grid, frame, limit),
+        // A store is a directory, written above.
+        VoxelFormat::Zarr => Err(VoxkitError::Unsupported(
+            "a zarr store is not one file".into(),
+        )),
     })
 }
 
@@ -121,6 +131,9 @@ pub fn read_voxels_warned(
         // Through the volume reader, which opens detached data itself.
         return super::nrrd::read_path(path, limit).map(|(g, f)| (g, f, Vec::new()));
     }
+    if format == VoxelFormat::Zarr {
+        return super::zarr::read(path, limit).map(|(g, f)| (g, f, Vec::new()));
+    }
     let io_err = |source| VoxkitError::Io {
         path: path.to_path_buf(),
         source,
@@ -133,7 +146,7 @@ pub fn read_voxels_warned(
         VoxelFormat::Binvox => plain(super::binvox::read(&bytes, limit)),
         VoxelFormat::Vox => super::vox::read_warned(&bytes, limit),
         VoxelFormat::Npy => plain(super::npy::read(&bytes, limit)),
-        VoxelFormat::Nrrd => unreachable!("read above"),
+        VoxelFormat::Nrrd | VoxelFormat::Zarr => unreachable!("read above"),
     };
     result.map_err(|e| match e {
         VoxkitError::Invalid(m) => VoxkitError::Invalid(format!("{}: {m}", path.display())),

@@ -16,6 +16,7 @@
 //! | [`pipeline`] | mesh → brick grid: fitting, quantization, memory estimate, the four modes, polylines |
 //! | [`measure`] | error measures against the exact conservative set: missing/extra, distances, tunnels |
 //! | [`shapes`] | closed test meshes (UV sphere, torus, box) with rotations and offsets |
+//! | [`tile`] | one tile of a grid alone, voxel for voxel as in the whole run (tiled Zarr output) |
 //! | [`snapped`] | thin/thick surfaces for lattice-snapped vertices by Kahan–Kelsen indexing, split evenly by a prefix sum |
 //!
 //! Meshes are triangle soups in grid space with fixed-point vertices
@@ -33,4 +34,5 @@ pub mod slab;
 pub mod snapped;
 pub mod solid;
 pub mod surface;
+pub mod tile;
 pub mod winding;

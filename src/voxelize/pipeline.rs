@@ -696,7 +696,7 @@ pub fn prepare_mesh<'a>(mesh: &'a Mesh, opts: &'a VoxelizeOptions) -> Result<Pre
 /// prefix sum over the projected triangles' point counts), otherwise by the
 /// lattice-line crossing kernel ([`voxelize_surface`]). Both give the same
 /// voxels on snapped input.
-fn surface_bricks(
+pub(crate) fn surface_bricks(
     triangles: &[SurfaceTriangle],
     dims: [i32; 3],
     mode: SurfaceMode,
@@ -720,7 +720,7 @@ fn ms(d: std::time::Duration) -> f64 {
 /// at once instead of on one). The arrays are not zeroed first: written
 /// once, in full, they are the kind of buffer [`crate::alloc::HugePageAlloc`]
 /// maps with huge pages.
-fn bricks_to_grid(lists: Vec<BrickList>) -> BrickGrid {
+pub(crate) fn bricks_to_grid(lists: Vec<BrickList>) -> BrickGrid {
     let total = lists.iter().map(Vec::len).sum();
     let mut keys: Vec<Voxel> = Vec::with_capacity(total);
     let mut masks: Vec<BrickMask> = Vec::with_capacity(total);

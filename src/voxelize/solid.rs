@@ -444,7 +444,7 @@ pub fn solid_interior(
     test: InsideTest,
     surface: &BrickGrid,
 ) -> Result<(BrickGrid, SolidStats)> {
-    solid_interior_with_progress(triangles, degenerate, dims, test, surface, None)
+    solid_interior_in(triangles, degenerate, dims, test, surface, None, None)
 }
 
 /// [`solid_interior`] reporting the refined bricks as they are decided
@@ -460,6 +460,37 @@ pub fn solid_interior_with_progress(
     surface: &BrickGrid,
     progress: Option<&BrickProgress<'_>>,
 ) -> Result<(BrickGrid, SolidStats)> {
+    solid_interior_in(triangles, degenerate, dims, test, surface, None, progress)
+}
+
+/// A box of voxels `[min, max)` (x, y, z) whose corners are multiples of 8.
+pub type BrickBox = (Voxel, Voxel);
+
+/// [`solid_interior_with_progress`] restricted to the voxels of `region` (all of
+/// `[0, dims)` when `None`), with the same verdict for each of them as the
+/// whole run: `triangles`, `degenerate` and `dims` are the whole mesh's and
+/// grid's. The caps come from the whole mesh's boundary and the winding
+/// trees from all its triangles, so every winding evaluation is the same
+/// computation as in the whole run; the octree is the whole grid's, with
+/// the boxes that miss `region` left out (a box's verdict depends only on
+/// the box and the trees); the crossing fill takes the closed chain's
+/// triangles that can cross a line of `region` left of its far end, which
+/// are all that the line values there count (a crossing counts for the
+/// centres at or beyond it). Voxels outside `region` are dropped. The work
+/// and memory of the fill and the octree follow the region (the trees, for
+/// a mesh with holes, the whole mesh).
+///
+/// # Errors
+/// As [`solid_interior`].
+pub fn solid_interior_in(
+    triangles: &[SurfaceTriangle],
+    degenerate: &[SurfaceTriangle],
+    dims: Dims,
+    test: InsideTest,
+    surface: &BrickGrid,
+    region: Option<BrickBox>,
+    progress: Option<&BrickProgress<'_>>,
+) -> Result<(BrickGrid, SolidStats)> {
     for (i, t) in triangles.iter().enumerate() {
         for a in 0..3 {
             let mn = t.iter().map(|p| p[a]).min().unwrap_or(0);
@@ -472,9 +503,23 @@ pub fn solid_interior_with_progress(
         }
     }
     let mut stats = SolidStats::default();
+    // The triangles whose crossings can count in the region: their (y, z)
+    // box meets the region's lines and they start left of its far end.
+    let in_column = |t: &SurfaceTriangle| {
+        region.is_none_or(|(lo, hi)| {
+            let mn = |a: usize| t.iter().map(|p| p[a]).min().unwrap_or(0);
+            let mx = |a: usize| t.iter().map(|p| p[a]).max().unwrap_or(0);
+            let one = VOXEL_ONE;
+            mn(0) < i64::from(hi.x) * one
+                && (1..3).all(|a| mx(a) >= i64::from(lo[a]) * one && mn(a) < i64::from(hi[a]) * one)
+        })
+    };
+    let column = |ts: &[SurfaceTriangle]| -> Vec<SurfaceTriangle> {
+        ts.iter().copied().filter(|t| in_column(t)).collect()
+    };
     let out = match test {
         InsideTest::Parity => fill_interior(
-            triangles,
+            &column(triangles),
             dims,
             LineValue::Parity,
             &[],
@@ -490,6 +535,7 @@ pub fn solid_interior_with_progress(
                 .copied()
                 .chain(caps.iter().map(|t| [t[0], t[2], t[1]]))
                 .collect();
+            let closed = column(&closed);
             if caps.is_empty() {
                 fill_interior(
                     &closed,
@@ -506,6 +552,7 @@ pub fn solid_interior_with_progress(
                     mesh: WindingTree::new(triangles),
                     dims,
                     surface,
+                    region,
                     points: AtomicU64::new(0),
                     boxes: AtomicU64::new(0),
                     far_ns: AtomicU64::new(0),
@@ -548,7 +595,29 @@ pub fn solid_interior_with_progress(
     };
     stats.crossings = out.crossings;
     stats.ambiguous = out.ambiguous;
-    Ok((interior_grid(out), stats))
+    let mut grid = interior_grid(out);
+    if let Some(r) = region {
+        grid = crop(&grid, r);
+    }
+    Ok((grid, stats))
+}
+
+/// The bricks of `grid` inside the brick-aligned box `region`.
+pub fn crop(grid: &BrickGrid, (lo, hi): BrickBox) -> BrickGrid {
+    let (blo, bhi) = (lo >> 3, hi >> 3);
+    let mut tiles = Vec::new();
+    let (mut keys, mut masks) = (Vec::new(), Vec::new());
+    for (k, m) in grid.bricks() {
+        if k.cmpge(blo).all() && k.cmplt(bhi).all() {
+            if grid.is_tile(k) {
+                tiles.push(k);
+            } else {
+                keys.push(k);
+                masks.push(*m);
+            }
+        }
+    }
+    BrickGrid::from_parts_tiled(keys, masks, tiles)
 }
 
 /// The fill's parts as a grid: whole bricks as tiles.
@@ -590,6 +659,9 @@ struct Classifier<'a> {
     mesh: WindingTree,
     dims: Dims,
     surface: &'a BrickGrid,
+    /// Only boxes meeting this region are classified (see
+    /// [`solid_interior_in`]).
+    region: Option<BrickBox>,
     points: AtomicU64,
     boxes: AtomicU64,
     /// Time (ns, summed over threads) in the far field, the near field and
@@ -644,12 +716,21 @@ impl Classifier<'_> {
         let Some((blo, bhi)) = centre_box(lo, size, self.dims) else {
             return Vec::new();
         };
+        if let Some((rlo, rhi)) = self.region
+            && (lo.cmpge(rhi).any() || (lo + Voxel::splat(size)).cmple(rlo).any())
+        {
+            return Vec::new();
+        }
         match self.caps_bound(blo, bhi) {
             Some(e) if decided(e) => {
                 if e.value.abs() < 0.5 - AMBIGUITY_BAND {
                     return Vec::new();
                 }
-                let (b0, b1): (Voxel, Voxel) = (blo.as_ivec3() >> 3, bhi.as_ivec3() >> 3);
+                let (mut b0, mut b1): (Voxel, Voxel) = (blo.as_ivec3() >> 3, bhi.as_ivec3() >> 3);
+                if let Some((rlo, rhi)) = self.region {
+                    b0 = b0.max(rlo >> 3);
+                    b1 = b1.min((rhi >> 3) - Voxel::ONE);
+                }
                 let mut out = Vec::new();
                 for bz in b0.z..=b1.z {
                     for by in b0.y..=b1.y {

@@ -65,7 +65,7 @@ fn every_format_round_trips_random_sets() {
             rng.random_range(0.001..2.0),
             dims,
         );
-        for ext in ["binvox", "vox", "npy", "nrrd"] {
+        for ext in ["binvox", "vox", "npy", "nrrd", "zarr"] {
             let path = dir.join(format!("case{ci}.{ext}"));
             write_voxels(&path, &grid, &frame, false).unwrap();
             let (back, f) = read_voxels(&path, MemoryLimit::DEFAULT).unwrap();
@@ -77,7 +77,7 @@ fn every_format_round_trips_random_sets() {
                     assert_eq!(f.origin, frame.origin, "translate is exact");
                     assert!(rel_close(f.voxel_size, frame.voxel_size));
                 }
-                "vox" => assert_eq!(f, frame, "vox keeps the frame exactly"),
+                "vox" | "zarr" => assert_eq!(f, frame, "{ext} keeps the frame exactly"),
                 "npy" => assert_eq!(f, GridFrame::new(DVec3::ZERO, 1.0, dims)),
                 "nrrd" => {
                     assert_eq!(f.dims, dims);
@@ -589,7 +589,7 @@ fn tiles_round_trip_through_every_format() {
         assert!(grid.mask_count() > 10);
         let full: HashSet<IVec3> = grid.tiles().collect();
         let frame = GridFrame::new(DVec3::new(-1.0, 2.0, 0.5), 0.25, dims);
-        for ext in ["binvox", "vox", "npy", "nrrd"] {
+        for ext in ["binvox", "vox", "npy", "nrrd", "zarr"] {
             let path = dir.join(format!("tiles.{ext}"));
             write_voxels(&path, &grid, &frame, true).unwrap();
             let (back, _) = read_voxels(&path, MemoryLimit::DEFAULT).unwrap();

@@ -28,3 +28,5 @@ mod tunnels;
 mod volume_io;
 mod vox_scene;
 mod voxelize;
+mod zarr_store;
+mod zarr_tiles;
