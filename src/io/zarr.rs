@@ -38,11 +38,15 @@
 //! shards by identical content.
 //!
 //! # Reading
-//! [`read`] visits the shards present, and inside each only the inner
-//! chunks its index lists (zarrs' sharded partial decoder), turning each
-//! into bricks; stores written by other tools (unsharded, other chunk
-//! shapes, `bool` or any nonzero `uint8` as set) read through the same
-//! path, one chunk at a time.
+//! [`read`] visits the shards present, in parallel. A store laid out as
+//! [`write`] lays it out (the same codecs and shapes) is read the way it was
+//! written: the shard's index decoded by the same chain (its crc32c
+//! checked), then only the inner chunks it lists, each decoded on its own
+//! and turned into bricks, so memory is the compressed shard plus one 64³
+//! chunk. Stores written by other tools (unsharded, other chunk shapes or
+//! codecs, `bool` or any nonzero `uint8` as set) are read by zarrs one whole
+//! chunk at a time, the chunk's size checked against the memory limit
+//! first.
 
 use std::num::NonZeroU64;
 use std::path::{Path, PathBuf};
@@ -51,10 +55,7 @@ use std::sync::Arc;
 use glam::DVec3;
 use rayon::prelude::*;
 use zarrs::array::codec::{BytesCodec, Crc32cCodec, ZstdCodec};
-use zarrs::array::{
-    Array, ArrayBuilder, ArrayBytes, ArrayShardedExt, ArrayShardedReadableExt,
-    ArrayShardedReadableExtCache, CodecChain, CodecOptions, FillValue,
-};
+use zarrs::array::{Array, ArrayBuilder, ArrayBytes, CodecChain, CodecOptions, FillValue};
 use zarrs::filesystem::FilesystemStore;
 use zarrs::group::{Group, GroupBuilder};
 use zarrs::storage::ReadableStorageTraits;
@@ -726,86 +727,166 @@ fn read_level_unguarded(
         meta.frame.voxel_size * (1u64 << level) as f64,
         dims,
     );
-    let options = CodecOptions::default();
-    let mut parts: Vec<(Voxel, BrickMask)> = Vec::new();
-    let mut loose = BrickGrid::new();
-    let mut take = |origin: [u64; 3], cshape: &[u64], bytes: &[u8]| {
-        chunk_to_bricks(origin, cshape, &shape, bytes, &mut parts, &mut loose);
-    };
     let grid_shape = array.chunk_grid_shape().to_vec();
+    let own = own_layout(&array, &level_array(&store, path, &meta.frame, level)?);
     let storage = array.storage();
-    let present = |idx: &[u64]| -> Result<bool> {
-        let key = array.chunk_key(idx);
-        Ok(storage.size_key(&key).map_err(|e| zerr(path, e))?.is_some())
-    };
-    let cache = ArrayShardedReadableExtCache::new(&array);
-    // Whole shards for now: the per-inner-chunk path overflows inside
-    // zarrs 0.23 in debug builds (to be investigated).
-    let sharded = cache.array_is_exclusively_sharded() && !cfg!(debug_assertions);
+    // The chunks (shards) present, found by key before anything is decoded.
+    let mut present = Vec::new();
     for z in 0..grid_shape[0] {
         for y in 0..grid_shape[1] {
             for x in 0..grid_shape[2] {
-                let idx = [z, y, x];
-                if !present(&idx)? {
-                    continue;
+                let key = array.chunk_key(&[z, y, x]);
+                if storage.size_key(&key).map_err(|e| zerr(path, e))?.is_some() {
+                    present.push([z, y, x]);
                 }
-                if !sharded {
-                    let bytes: Vec<u8> = array
-                        .retrieve_chunk_opt(&idx, &options)
-                        .map_err(|e| zerr(path, e))?;
-                    let subset = array.chunk_subset(&idx).map_err(|e| zerr(path, e))?;
-                    let start: Vec<u64> = subset.start().to_vec();
-                    let cs: Vec<u64> = subset.shape().to_vec();
-                    take([start[0], start[1], start[2]], &cs, &bytes);
-                    continue;
-                }
-                // The inner chunks of this shard: shard shape / inner shape.
-                let shard_subset = array.chunk_subset(&idx).map_err(|e| zerr(path, e))?;
-                let inner = array
-                    .effective_subchunk_shape()
-                    .ok_or_else(|| zerr(path, "sharded array without an inner chunk shape"))?;
-                let inner: Vec<u64> = inner.iter().map(|n| n.get()).collect();
-                let first: Vec<u64> = (0..3).map(|a| shard_subset.start()[a] / inner[a]).collect();
-                let counts: Vec<u64> = (0..3)
-                    .map(|a| shard_subset.shape()[a].div_ceil(inner[a]))
-                    .collect();
-                for cz in 0..counts[0] {
-                    for cy in 0..counts[1] {
-                        for cx in 0..counts[2] {
-                            let c = [first[0] + cz, first[1] + cy, first[2] + cx];
-                            if (0..3).any(|a| c[a] * inner[a] >= shape[a]) {
-                                continue;
-                            }
-                            // (Not `subchunk_byte_range`: zarrs 0.23 adds
-                            // offset and length of missing chunks, which
-                            // overflows in debug builds.)
-                            let present = array
-                                .retrieve_encoded_subchunk(&cache, &c)
-                                .map_err(|e| zerr(path, e))?;
-                            if present.is_none() {
-                                continue;
-                            }
-                            let bytes: Vec<u8> = array
-                                .retrieve_subchunk_opt(&cache, &c, &options)
-                                .map_err(|e| zerr(path, e))?;
-                            // The decoded inner chunk is whole (64³) even
-                            // past the array's end: its stride is `inner`.
-                            take(
-                                [c[0] * inner[0], c[1] * inner[1], c[2] * inner[2]],
-                                &inner,
-                                &bytes,
-                            );
-                        }
-                    }
-                }
-                cache.clear();
             }
         }
+    }
+    if !own {
+        // A chunk of another tool's store is decoded whole: cap it first.
+        let chunk: u128 = array.chunk_shape(&[0, 0, 0]).map_or(0, |c| {
+            c.iter().map(|n| u128::from(n.get())).product()
+        });
+        limit.check(&format!("a chunk of {}", path.display()), chunk, 1)?;
+    }
+    let decoded: Vec<Result<(Vec<(Voxel, BrickMask)>, BrickGrid)>> = present
+        .into_par_iter()
+        .map(|idx| {
+            let mut parts = Vec::new();
+            let mut loose = BrickGrid::new();
+            let mut take = |origin: [u64; 3], cshape: &[u64], bytes: &[u8]| {
+                chunk_to_bricks(origin, cshape, &shape, bytes, &mut parts, &mut loose);
+            };
+            if own {
+                let s = Voxel::new(idx[2] as i32, idx[1] as i32, idx[0] as i32);
+                read_own_shard(&shard_path(path, level, s), s, &mut take)?;
+            } else {
+                let bytes: Vec<u8> = array
+                    .retrieve_chunk_opt(&idx, &CodecOptions::default())
+                    .map_err(|e| zerr(path, e))?;
+                let subset = array.chunk_subset(&idx).map_err(|e| zerr(path, e))?;
+                let (start, cs) = (subset.start(), subset.shape());
+                take([start[0], start[1], start[2]], cs, &bytes);
+            }
+            Ok((parts, loose))
+        })
+        .collect();
+    let mut parts = Vec::new();
+    let mut loose = BrickGrid::new();
+    for d in decoded {
+        let (p, l) = d?;
+        parts.extend(p);
+        loose.union_with(&l);
     }
     let mut grid = BrickGrid::from_bricks(parts);
     grid.union_with(&loose);
     grid.compact_tiles();
     Ok((grid, frame))
+}
+
+/// Whether `array` is stored the way [`write`] stores it (the codecs of
+/// `ours`, the array [`level_array`] describes): then its shards are read
+/// by [`read_own_shard`], one listed inner chunk at a time.
+fn own_layout(array: &Array<FilesystemStore>, ours: &Array<FilesystemStore>) -> bool {
+    let codecs = |a: &Array<FilesystemStore>| {
+        serde_json::to_value(a.metadata())
+            .ok()
+            .and_then(|m| m.get("codecs").cloned())
+    };
+    let chunks = |a: &Array<FilesystemStore>| a.chunk_shape(&[0, 0, 0]).ok();
+    codecs(array).is_some() && codecs(array) == codecs(ours) && chunks(array) == chunks(ours)
+}
+
+/// Bytes of a shard's encoded index: (offset, length) as `u64` for each
+/// inner chunk, then the crc32c checksum.
+const INDEX_BYTES: usize = CHUNKS_PER_SHARD * CHUNKS_PER_SHARD * CHUNKS_PER_SHARD * 16 + 4;
+
+/// Reads one shard that [`write`] wrote (`file`, shard `s`), handing each
+/// inner chunk its index lists to `take` (origin z, y, x; shape; bytes):
+/// the index's checksum is checked and every listed range must lie inside
+/// the file, so a torn or damaged shard is an error naming it, never a
+/// wrong read. Missing: nothing (a tile may be removing it).
+fn read_own_shard(
+    file: &Path,
+    s: Voxel,
+    take: &mut impl FnMut([u64; 3], &[u64], &[u8]),
+) -> Result<()> {
+    use zarrs::array::ArrayToBytesCodecTraits;
+    let bytes = match std::fs::read(file) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(source) => {
+            return Err(VoxkitError::Io {
+                path: file.to_path_buf(),
+                source,
+            });
+        }
+    };
+    let damaged = |what: &str| {
+        VoxkitError::invalid(format!(
+            "{}: damaged shard ({what}); re-run the tile or voxelization that wrote it",
+            file.display()
+        ))
+    };
+    let Some(body_len) = bytes.len().checked_sub(INDEX_BYTES) else {
+        return Err(damaged("shorter than its index"));
+    };
+    let n = NonZeroU64::new(CHUNKS_PER_SHARD as u64).expect("8 > 0");
+    let index_shape = [n, n, n, NonZeroU64::new(2).expect("2 > 0")];
+    let options = CodecOptions::default();
+    let index = index_codecs()
+        .decode(
+            std::borrow::Cow::Borrowed(&bytes[body_len..]),
+            &index_shape,
+            &zarrs::array::data_type::uint64(),
+            &FillValue::from(u64::MAX),
+            &options,
+        )
+        .and_then(|b| Ok(b.into_fixed()?.into_owned()))
+        .map_err(|e| damaged(&format!("index: {e}")))?;
+    let entries: Vec<u64> = index
+        .chunks_exact(8)
+        .map(|w| u64::from_ne_bytes(w.try_into().expect("8 bytes")))
+        .collect();
+    let inner = inner_codecs();
+    let chunk_shape = [NonZeroU64::new(CHUNK_EDGE).expect("64 > 0"); 3];
+    let base = [s.z, s.y, s.x].map(|c| c as u64 * SHARD_EDGE);
+    for (c, e) in entries.chunks_exact(2).enumerate() {
+        let (offset, len) = (e[0], e[1]);
+        if offset == u64::MAX && len == u64::MAX {
+            continue;
+        }
+        let range = offset
+            .checked_add(len)
+            .filter(|&end| end <= body_len as u64)
+            .map(|end| offset as usize..end as usize)
+            .ok_or_else(|| damaged(&format!("inner chunk {c} lies outside the file")))?;
+        let decoded = inner
+            .decode(
+                std::borrow::Cow::Borrowed(&bytes[range]),
+                &chunk_shape,
+                &zarrs::array::data_type::uint8(),
+                &FillValue::from(0u8),
+                &options,
+            )
+            .and_then(|b| Ok(b.into_fixed()?.into_owned()))
+            .map_err(|e| damaged(&format!("inner chunk {c}: {e}")))?;
+        if decoded.len() != CHUNK_BYTES {
+            return Err(damaged(&format!("inner chunk {c} decodes to {} bytes", decoded.len())));
+        }
+        let (cz, cy, cx) = (
+            c / (CHUNKS_PER_SHARD * CHUNKS_PER_SHARD),
+            c / CHUNKS_PER_SHARD % CHUNKS_PER_SHARD,
+            c % CHUNKS_PER_SHARD,
+        );
+        let origin = [
+            base[0] + cz as u64 * CHUNK_EDGE,
+            base[1] + cy as u64 * CHUNK_EDGE,
+            base[2] + cx as u64 * CHUNK_EDGE,
+        ];
+        take(origin, &[CHUNK_EDGE; 3], &decoded);
+    }
+    Ok(())
 }
 
 /// Adds the set voxels of one decoded chunk (`origin` and `cshape` in z, y,
@@ -821,6 +902,9 @@ fn chunk_to_bricks(
     loose: &mut BrickGrid,
 ) {
     let [z0, y0, x0] = origin;
+    if (0..3).any(|a| origin[a] >= shape[a]) {
+        return;
+    }
     let (sz, sy, sx) = (cshape[0], cshape[1], cshape[2]);
     // Extents inside the array.
     let (ez, ey, ex) = (
