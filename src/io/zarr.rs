@@ -744,9 +744,9 @@ fn read_level_unguarded(
     }
     if !own {
         // A chunk of another tool's store is decoded whole: cap it first.
-        let chunk: u128 = array.chunk_shape(&[0, 0, 0]).map_or(0, |c| {
-            c.iter().map(|n| u128::from(n.get())).product()
-        });
+        let chunk: u128 = array
+            .chunk_shape(&[0, 0, 0])
+            .map_or(0, |c| c.iter().map(|n| u128::from(n.get())).product());
         limit.check(&format!("a chunk of {}", path.display()), chunk, 1)?;
     }
     let decoded: Vec<Result<(Vec<(Voxel, BrickMask)>, BrickGrid)>> = present
@@ -872,7 +872,10 @@ fn read_own_shard(
             .and_then(|b| Ok(b.into_fixed()?.into_owned()))
             .map_err(|e| damaged(&format!("inner chunk {c}: {e}")))?;
         if decoded.len() != CHUNK_BYTES {
-            return Err(damaged(&format!("inner chunk {c} decodes to {} bytes", decoded.len())));
+            return Err(damaged(&format!(
+                "inner chunk {c} decodes to {} bytes",
+                decoded.len()
+            )));
         }
         let (cz, cy, cx) = (
             c / (CHUNKS_PER_SHARD * CHUNKS_PER_SHARD),

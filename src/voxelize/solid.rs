@@ -602,9 +602,12 @@ pub fn solid_interior_in(
     Ok((grid, stats))
 }
 
-/// The bricks of `grid` inside the brick-aligned box `region`.
+/// The bricks of `grid` inside the box `region`, whose min corner is
+/// brick-aligned and whose max corner is brick-aligned or the grid's own
+/// edge (a tile cut at the grid: the bricks it ends in hold no voxel beyond
+/// the grid, so they are kept whole).
 pub fn crop(grid: &BrickGrid, (lo, hi): BrickBox) -> BrickGrid {
-    let (blo, bhi) = (lo >> 3, hi >> 3);
+    let (blo, bhi) = (lo >> 3, (hi + Voxel::splat(7)) >> 3);
     let mut tiles = Vec::new();
     let (mut keys, mut masks) = (Vec::new(), Vec::new());
     for (k, m) in grid.bricks() {
@@ -729,7 +732,8 @@ impl Classifier<'_> {
                 let (mut b0, mut b1): (Voxel, Voxel) = (blo.as_ivec3() >> 3, bhi.as_ivec3() >> 3);
                 if let Some((rlo, rhi)) = self.region {
                     b0 = b0.max(rlo >> 3);
-                    b1 = b1.min((rhi >> 3) - Voxel::ONE);
+                    // The region's max corner may be the grid's edge.
+                    b1 = b1.min(((rhi + Voxel::splat(7)) >> 3) - Voxel::ONE);
                 }
                 let mut out = Vec::new();
                 for bz in b0.z..=b1.z {
