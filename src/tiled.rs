@@ -83,7 +83,7 @@ pub fn plan(
     let mesh = Mesh::load(mesh_path)?;
     let frame = opts.lattice.fit(mesh.bounds())?;
     let quantized = quantize_mesh(&mesh, &frame, opts.snap);
-    let tiles = plan_tiles(&quantized, frame.dims, tile_size);
+    let tiles = plan_tiles(&quantized, frame.dims, tile_size, opts.mode);
     zarr::create(store, &frame, 1, Some(u64::from(tile_size)))?;
     Ok(serde_json::json!({
         "store": store.display().to_string(),

@@ -87,10 +87,29 @@ fn meets(r: (Voxel, Voxel), (lo, hi): BrickBox) -> bool {
     r.0.cmplt(hi).all() && r.1.cmpge(lo).all()
 }
 
-/// The tiles (sorted by z, y, x) whose box meets the reach of a triangle or
-/// segment of `mesh`.
-pub fn plan_tiles(mesh: &QuantizedMesh, dims: [usize; 3], tile_size: u32) -> Vec<[u32; 3]> {
+/// The tiles (sorted by z, y, x) that can hold voxels of `mode`: those whose
+/// box meets the reach of a triangle or segment of `mesh`; for
+/// [`VoxelizeMode::Solid`], every tile of the grid, since the interior fills
+/// tiles that no triangle reaches (the grid is fitted to the mesh, so these
+/// are the tiles of its bounding box).
+pub fn plan_tiles(
+    mesh: &QuantizedMesh,
+    dims: [usize; 3],
+    tile_size: u32,
+    mode: VoxelizeMode,
+) -> Vec<[u32; 3]> {
     let n = tile_counts(dims, tile_size);
+    if mode == VoxelizeMode::Solid {
+        let mut all = Vec::new();
+        for z in 0..n[2] {
+            for y in 0..n[1] {
+                for x in 0..n[0] {
+                    all.push([x, y, z]);
+                }
+            }
+        }
+        return all;
+    }
     let mut hit = std::collections::BTreeSet::new();
     let segs = mesh.segments.iter().map(|s| reach(s));
     for (lo, hi) in mesh.triangles.iter().map(|t| reach(t)).chain(segs) {

@@ -48,7 +48,7 @@ fn check(
         let whole = voxelize_mesh(mesh, &opts).unwrap();
         let frame = whole.frame;
         let q = quantize_mesh(mesh, &frame, false);
-        let plan = plan_tiles(&q, frame.dims, tile_size);
+        let plan = plan_tiles(&q, frame.dims, tile_size, mode);
         let planned: HashSet<[u32; 3]> = plan.iter().copied().collect();
         let mut merged = BrickGrid::new();
         for &t in &plan {
