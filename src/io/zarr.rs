@@ -749,7 +749,7 @@ fn read_level_unguarded(
             .map_or(0, |c| c.iter().map(|n| u128::from(n.get())).product());
         limit.check(&format!("a chunk of {}", path.display()), chunk, 1)?;
     }
-    let decoded: Vec<Result<(Vec<(Voxel, BrickMask)>, BrickGrid)>> = present
+    let decoded: Vec<Result<ShardVoxels>> = present
         .into_par_iter()
         .map(|idx| {
             let mut parts = Vec::new();
@@ -783,6 +783,10 @@ fn read_level_unguarded(
     grid.compact_tiles();
     Ok((grid, frame))
 }
+
+/// One shard's voxels as read: brick-aligned chunks as whole bricks, others
+/// voxel by voxel.
+type ShardVoxels = (Vec<(Voxel, BrickMask)>, BrickGrid);
 
 /// Whether `array` is stored the way [`write`] stores it (the codecs of
 /// `ours`, the array [`level_array`] describes): then its shards are read
