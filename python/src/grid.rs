@@ -230,6 +230,14 @@ impl Grid {
         self.count as usize
     }
 
+    /// Same frame (dims, origin, voxel size) and same set of voxels,
+    /// compared brick by brick without expanding them.
+    fn same_as(&self, py: Python<'_>, other: &Grid) -> bool {
+        self.frame == other.frame
+            && self.count == other.count
+            && py.detach(|| self.grid == other.grid)
+    }
+
     /// Counts and timings of the voxelization that made the grid (`None`
     /// for a loaded grid).
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
@@ -508,10 +516,23 @@ pub fn voxelize(
     Ok(Grid::new(v.grid, v.frame, Some(v.stats), snap))
 }
 
-/// Reads a voxel file (`.binvox`, `.vox`, `.npy`, `.nrrd`) or OME-Zarr store (`.zarr`).
+/// Reads a voxel file (`.binvox`, `.vox`, `.npy`, `.nrrd`) or OME-Zarr store
+/// (`.zarr`; `level` > 0 reads that level of its pyramid).
 #[pyfunction]
-#[pyo3(signature = (path, max_memory_mib = 4096))]
-pub fn load_grid(py: Python<'_>, path: PathBuf, max_memory_mib: u64) -> PyResult<Grid> {
+#[pyo3(signature = (path, max_memory_mib = 4096, level = 0))]
+pub fn load_grid(py: Python<'_>, path: PathBuf, max_memory_mib: u64, level: u32) -> PyResult<Grid> {
+    if level > 0 {
+        if !voxkit::io::zarr::is_zarr_path(&path) {
+            return Err(value_error(format!(
+                "{}: level {level} applies to the pyramid of a .zarr store",
+                path.display()
+            )));
+        }
+        let (grid, frame) = run(py, || {
+            voxkit::io::zarr::read_level(&path, level, limit_of(max_memory_mib))
+        })?;
+        return Ok(Grid::new(grid, frame, None, false));
+    }
     let (grid, frame, warnings) = run(py, || read_voxels_warned(&path, limit_of(max_memory_mib)))?;
     warn_each(py, &path, &warnings)?;
     Ok(Grid::new(grid, frame, None, false))
@@ -580,7 +601,7 @@ fn tiled_options(
 /// Plans a tiled run into an OME-Zarr store (`voxkit voxelize … --plan`):
 /// writes the store's metadata and returns the plan as a JSON string.
 #[pyfunction]
-#[pyo3(signature = (mesh_path, store, voxel_size, origin, tile_size, mode = "thin", inside = "winding", force = false, max_memory_mib = 4096))]
+#[pyo3(signature = (mesh_path, store, voxel_size, origin, tile_size, mode = "thin", inside = "winding", force = false, max_memory_mib = 4096, pyramid = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn plan_tiles(
     py: Python<'_>,
@@ -593,10 +614,23 @@ pub fn plan_tiles(
     inside: &str,
     force: bool,
     max_memory_mib: u64,
+    pyramid: bool,
 ) -> PyResult<String> {
     let opts = tiled_options(voxel_size, origin, mode, inside, max_memory_mib)?;
     let j = run(py, || {
-        voxkit::tiled::plan(&mesh_path, &store, &opts, tile_size, force)
+        voxkit::tiled::plan(&mesh_path, &store, &opts, tile_size, force, pyramid)
+    })?;
+    Ok(j.to_string())
+}
+
+/// Builds the pyramid levels of a tiled store that span several tiles
+/// (`voxkit voxelize … --finish`), once every tile is done; returns the
+/// report as a JSON string.
+#[pyfunction]
+#[pyo3(signature = (store, max_memory_mib = 4096))]
+pub fn finish_tiles(py: Python<'_>, store: PathBuf, max_memory_mib: u64) -> PyResult<String> {
+    let j = run(py, || {
+        voxkit::tiled::finish(&store, limit_of(max_memory_mib))
     })?;
     Ok(j.to_string())
 }

@@ -10,8 +10,9 @@ use voxkit::VoxkitError;
 use voxkit::camera::{Camera, SceneAxes, ViewPreset};
 use voxkit::grid::{BrickGrid, GridFrame, MemoryLimit, ScalarVolume, VolumeData, VolumeFrame};
 use voxkit::render::{
-    GridTransform, NormalMode, OccupancyGrid, RayKind, RenderImage, RenderOptions, Sampling,
-    TransferFunction, VolumeMode, VolumeOptions, VolumeScene, occupied_world_box,
+    GridTransform, NormalMode, OccupancyGrid, PixelWindow, RayKind, RenderImage, RenderOptions,
+    Sampling, TransferFunction, VolumeMode, VolumeOptions, VolumeScene, occupied_world_box,
+    render_grid_window,
 };
 
 use crate::grid::{Grid, limit_of};
@@ -139,7 +140,7 @@ fn to_arrays<'py>(py: Python<'py>, img: RenderImage, background: [f32; 3]) -> Im
 /// Renders a voxel grid (its world frame; Y up, as `voxkit render` takes
 /// binvox/npy/NRRD grids).
 #[pyfunction]
-#[pyo3(signature = (grid, size, eye, target, up, fov, ortho, view, ray, skip, normals, background, max_memory_mib))]
+#[pyo3(signature = (grid, size, eye, target, up, fov, ortho, view, ray, skip, normals, background, max_memory_mib, pixels = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn render_grid<'py>(
     py: Python<'py>,
@@ -156,6 +157,7 @@ pub fn render_grid<'py>(
     normals: &str,
     background: [f64; 3],
     max_memory_mib: u64,
+    pixels: Option<(u32, u32, u32, u32)>,
 ) -> PyResult<Image<'py>> {
     let v = view_of(
         size,
@@ -171,8 +173,17 @@ pub fn render_grid<'py>(
         background,
         max_memory_mib,
     )?;
+    let window = match pixels {
+        Some((x, y, width, height)) => PixelWindow {
+            x,
+            y,
+            width,
+            height,
+        },
+        None => PixelWindow::full(&v.opts),
+    };
     let img = run(py, || {
-        render_occupancy(&grid.grid, &grid.frame, SceneAxes::Y_UP, &v)
+        render_occupancy(&grid.grid, &grid.frame, SceneAxes::Y_UP, &v, window)
     })?;
     Ok(to_arrays(py, img, v.opts.background))
 }
@@ -182,9 +193,10 @@ fn render_occupancy(
     frame: &GridFrame,
     axes: SceneAxes,
     v: &View,
+    window: PixelWindow,
 ) -> voxkit::Result<RenderImage> {
     let xf = GridTransform::from_frame(frame)?;
-    render_in(grid, frame.dims, &xf, axes, v)
+    render_in(grid, frame.dims, &xf, axes, v, window)
 }
 
 fn render_in(
@@ -193,11 +205,43 @@ fn render_in(
     xf: &GridTransform,
     axes: SceneAxes,
     v: &View,
+    window: PixelWindow,
 ) -> voxkit::Result<RenderImage> {
     let occ = OccupancyGrid::new(grid, dims, v.opts.limit)?;
     let (lo, hi) = occupied_world_box(&occ, xf);
     let cam = v.camera(lo, hi, axes)?;
-    Ok(voxkit::render::render_grid(&occ, xf, &cam, &v.opts)?.0)
+    Ok(render_grid_window(&occ, xf, &cam, &v.opts, window)?.0)
+}
+
+/// Writes an `(H, W, 3)` or `(H, W, 4)` uint8 image as a PNG file
+/// (atomically; an existing file is replaced only if `overwrite`).
+#[pyfunction]
+#[pyo3(signature = (path, image, overwrite = false))]
+pub fn write_png(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+    image: numpy::PyReadonlyArray3<'_, u8>,
+    overwrite: bool,
+) -> PyResult<()> {
+    let a = image.as_array();
+    let (h, w, c) = a.dim();
+    if c != 3 && c != 4 {
+        return Err(value_error(format!(
+            "expected an (H, W, 3) or (H, W, 4) uint8 image, got shape ({h}, {w}, {c})"
+        )));
+    }
+    let (Ok(width), Ok(height)) = (u32::try_from(w), u32::try_from(h)) else {
+        return Err(value_error(format!("image {w}x{h} is too large for PNG")));
+    };
+    let mut rgba = Vec::with_capacity(w * h * 4);
+    for row in a.outer_iter() {
+        for px in row.outer_iter() {
+            rgba.extend_from_slice(&[px[0], px[1], px[2], if c == 4 { px[3] } else { 255 }]);
+        }
+    }
+    run(py, || {
+        voxkit::io::image::write_png_rgba(&path, width, height, &rgba, overwrite)
+    })
 }
 
 /// The samples of a 3D array in x-fastest order (any layout).
@@ -318,7 +362,15 @@ pub fn render_volume<'py>(
         if volume.is_none() && vol.is_binary() {
             // A 0/1 grid: occupancy, as `voxkit render` treats it.
             let xf = GridTransform::new(vol.frame.origin, vol.frame.axes)?;
-            return render_in(&vol.to_brick_grid(), vol.dims, &xf, SceneAxes::Y_UP, &v);
+            let full = PixelWindow::full(&v.opts);
+            return render_in(
+                &vol.to_brick_grid(),
+                vol.dims,
+                &xf,
+                SceneAxes::Y_UP,
+                &v,
+                full,
+            );
         }
         // The default window reads every sample: only when none is given.
         let w = window.unwrap_or_else(|| VolumeOptions::default_window(&vol));

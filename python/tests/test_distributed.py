@@ -13,7 +13,7 @@ pytest.importorskip("dask.bag")
 distributed = pytest.importorskip("distributed")
 zarr = pytest.importorskip("zarr", minversion="3")
 
-from voxkit.distributed import voxelize_dataset, voxelize_tiled  # noqa: E402
+from voxkit.distributed import render_tiled, voxelize_dataset, voxelize_tiled  # noqa: E402
 
 H, ORIGIN = 0.00025, (-0.1, 0.03, -0.07)
 MODES = ["thin", "thick", "conservative", "solid"]
@@ -75,3 +75,48 @@ def test_dataset_on_a_local_cluster(client, tmp_path):
         assert np.array_equal(got.indices(), want.indices()), name
     again = voxelize_dataset(paths, tmp_path / "out", resolution=48, client=client, progress=False)
     assert again["skipped"] == 4
+
+
+def test_render_tiled_equals_the_single_process_render(client, tmp_path):
+    store = tmp_path / "s.zarr"
+    v, f = voxkit.load_mesh(SPOT)
+    voxkit.voxelize(v, f, resolution=80).save(store)
+    want_rgb, want_depth = voxkit.render(voxkit.load_grid(store), size=(203, 150), view="front", ray="6")
+    # Rectangles that do not divide the frame, on two workers.
+    s = render_tiled(store, tmp_path / "t.png", size=(203, 150), tile=64, client=client,
+                     progress=False, view="front", ray="6")
+    assert s["failed"] == [] and s["tiles"] == 4 * 3
+    assert np.array_equal(s["rgb"], want_rgb)
+    assert np.array_equal(s["depth"], want_depth)
+    assert (tmp_path / "t.png").stat().st_size > 0
+    # Each worker read the store once for the call.
+    assert sum(not r["grid_cached"] for r in s["reports"]) <= 2
+
+
+def test_render_tiled_here_and_of_a_pyramid_level(tmp_path, cli):
+    store = tmp_path / "p.zarr"
+    cli("voxelize", BUNNY, "-r", "128", "--pyramid", "-o", store)
+    g1 = voxkit.load_grid(store, level=1)
+    assert g1.dims == tuple((d + 1) // 2 for d in voxkit.load_grid(store).dims)
+    want, _ = voxkit.render(g1, size=(96, 80))
+    s = render_tiled(store, level=1, size=(96, 80), tile=40, progress=False)
+    assert s["failed"] == [] and np.array_equal(s["rgb"], want)
+    with pytest.raises(ValueError, match="does not apply"):
+        render_tiled(store, size=(8, 8), volume="mip", progress=False)
+
+
+def test_tiled_pyramid_on_a_local_cluster_equals_the_whole_store(client, tmp_path, cli):
+    # Tiles of 1024 write levels 0 and 1 themselves; finish_tiled pools the rest.
+    v, _ = voxkit.load_mesh(SPOT)
+    h = float((v.max(axis=0) - v.min(axis=0)).max()) / 1300
+    o = tuple(float(c) for c in v.min(axis=0))
+    s = voxelize_tiled(SPOT, tmp_path / "t.zarr", h, o, 1024, "thin", client=client, progress=False, pyramid=True)
+    assert s["failed"] == [] and s["done"] >= 2 and s["pyramid"]["from_level"] == 1, s["pyramid"]
+    whole = tmp_path / "whole.zarr"
+    cli("voxelize", SPOT, "--voxel-size", repr(h), "--origin", ",".join(map(repr, o)), "--pyramid", "-o", whole)
+    levels = s["pyramid"]["levels"]
+    assert levels == len(zarr.open_group(str(whole), mode="r").attrs["ome"]["multiscales"][0]["datasets"]) >= 5
+    for level in range(levels):
+        got = voxkit.load_grid(tmp_path / "t.zarr", level=level)
+        assert got == voxkit.load_grid(whole, level=level), level
+        assert len(got) > 0

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import voxkit
-from conftest import CT_HEAD, SPOT
+from conftest import CT_HEAD, SPOT, TEAPOT
 
 
 @pytest.fixture(scope="module")
@@ -97,3 +97,17 @@ def test_png_matches_the_cli(cli, tmp_path, spot):
     cli_rgb = np.frombuffer(b"".join(rows), np.uint8).reshape(h, w, bpp)[..., :3]
     rgb, _ = voxkit.render(voxkit.load_grid(g), size=(64, 48))
     assert np.array_equal(rgb, cli_rgb)
+
+
+def test_render_pixels_is_a_window_of_the_frame(tmp_path):
+    g = voxkit.voxelize(*voxkit.load_mesh(TEAPOT), resolution=64)
+    rgb, depth = voxkit.render(g, size=(120, 90))
+    part, pdepth = voxkit.render(g, size=(120, 90), pixels=(17, 33, 50, 41))
+    assert part.shape == (41, 50, 3) and np.isfinite(pdepth).any()
+    assert np.array_equal(part, rgb[33:74, 17:67]) and np.array_equal(pdepth, depth[33:74, 17:67])
+    with pytest.raises(ValueError, match="not inside"):
+        voxkit.render(g, size=(120, 90), pixels=(100, 0, 30, 10))
+    voxkit.write_png(tmp_path / "w.png", part)
+    with pytest.raises((ValueError, OSError)):
+        voxkit.write_png(tmp_path / "w.png", part)  # exists, no overwrite
+    voxkit.write_png(tmp_path / "w.png", part, overwrite=True)

@@ -208,3 +208,14 @@ def test_stats_are_the_librarys():
     assert s["voxels"] == len(g) and s["triangles"] > 60000
     assert s["voxelize_ms"] >= s["kernel_ms"] > 0
     assert "VoxelGrid(dims=" in repr(g)
+
+
+def test_grids_compare_by_frame_and_voxels(tmp_path):
+    v, f = voxkit.load_mesh(SPOT)
+    a = voxkit.voxelize(v, f, resolution=40)
+    assert a == voxkit.voxelize(v, f, resolution=40)
+    assert a != voxkit.voxelize(v, f, resolution=40, mode="thick")
+    assert a != voxkit.voxelize(v, f, resolution=41)
+    assert (a == "a grid") is False
+    a.save(tmp_path / "a.zarr")
+    assert voxkit.load_grid(tmp_path / "a.zarr") == a

@@ -44,6 +44,7 @@ __all__ = [
     "read_volume",
     "render",
     "voxelize",
+    "write_png",
 ]
 
 __version__ = "0.1.0"
@@ -168,6 +169,16 @@ class VoxelGrid:
 
     def __len__(self) -> int:
         return len(self._g)
+
+    def __eq__(self, other: object) -> bool:
+        """Same frame (``dims``, ``origin``, ``voxel_size``) and the same
+        voxels (compared brick by brick: cheap even for billions of voxels).
+        Colours are not compared."""
+        if not isinstance(other, VoxelGrid):
+            return NotImplemented
+        return self._g.same_as(other._g)
+
+    __hash__ = None  # type: ignore[assignment]  # equal grids need not hash alike
 
     def __repr__(self) -> str:
         return repr(self._g)
@@ -325,12 +336,21 @@ def voxelize(
     return VoxelGrid(native)
 
 
-def load_grid(path: PathLike, *, max_memory_mib: int = 4096) -> VoxelGrid:
+def load_grid(path: PathLike, *, max_memory_mib: int = 4096, level: int = 0) -> VoxelGrid:
     """Read a voxel file written by :meth:`VoxelGrid.save`, ``voxkit voxelize``
     or another tool: ``.binvox``, ``.vox``, ``.npy`` (3D, nonzero = set),
     ``.nrrd``, or a Zarr v3 / OME-Zarr store ``.zarr`` (array ``0``, z, y, x,
-    uint8 or bool, nonzero = set; only the chunks present are read)."""
-    return VoxelGrid(_voxkit.load_grid(os.fspath(path), int(max_memory_mib)))
+    uint8 or bool, nonzero = set; only the chunks present are read).
+    ``level`` > 0 reads that level of a store's pyramid (``--pyramid``:
+    occupancy max-pooled by ``2**level``, in the level's own frame)."""
+    return VoxelGrid(_voxkit.load_grid(os.fspath(path), int(max_memory_mib), int(level)))
+
+
+def write_png(path: PathLike, image: Any, *, overwrite: bool = False) -> None:
+    """Write an ``(H, W, 3)`` or ``(H, W, 4)`` uint8 image (e.g. the ``rgb``
+    of :func:`render`) as a PNG file, atomically; an existing file is
+    replaced only if ``overwrite``."""
+    _voxkit.write_png(os.fspath(path), np.ascontiguousarray(image, dtype=np.uint8), bool(overwrite))
 
 
 def measure(
@@ -429,6 +449,7 @@ def render(
     spacing: Sequence[float] = (1.0, 1.0, 1.0),
     origin: Sequence[float] = (0.0, 0.0, 0.0),
     max_memory_mib: int = 4096,
+    pixels: Optional[Tuple[int, int, int, int]] = None,
 ) -> Tuple[np.ndarray, np.ndarray]:
     """Render with the library's discrete ray caster, with ``voxkit render``'s
     defaults: a 1024×1024 three-quarter view (``view="iso"``) framed to the
@@ -449,6 +470,11 @@ def render(
 
     Returns ``(rgb (H, W, 3) uint8, depth (H, W) float32)``; depth is the
     world distance along the ray to the hit, ``inf`` where nothing was hit.
+
+    ``pixels=(x, y, w, h)`` (a :class:`VoxelGrid` only) renders just that
+    rectangle of the ``size`` frame (row 0 at the top), pixel for pixel the
+    frame's: how :func:`voxkit.distributed.render_tiled` splits a frame
+    across workers. The arrays are then ``(h, w, …)``.
     """
     w, h = (int(size[0]), int(size[1]))
     if w <= 0 or h <= 0:
@@ -470,7 +496,12 @@ def render(
     if isinstance(grid_or_volume, VoxelGrid):
         if volume is not None or iso is not None or window is not None or tf is not None:
             raise ValueError("volume, iso, window and tf apply to scalar volumes, not to a VoxelGrid")
-        return _voxkit.render_grid(grid_or_volume._g, *common)
+        px = None if pixels is None else tuple(int(c) for c in pixels)
+        if px is not None and len(px) != 4:
+            raise ValueError(f"pixels must be (x, y, width, height), got {pixels!r}")
+        return _voxkit.render_grid(grid_or_volume._g, *common, px)
+    if pixels is not None:
+        raise ValueError("pixels applies to a VoxelGrid (render_tiled), not to a scalar volume")
     arr = grid_or_volume
     if isinstance(arr, tuple) and len(arr) == 3:
         arr, spacing, origin = arr

@@ -12,6 +12,9 @@ schedulers) and on a cluster (a ``distributed.Client``):
   so tasks never write the same object and a failed task is simply run again.
   The merged store equals the single-process voxelization voxel for voxel.
 * :func:`voxelize_dataset` voxelizes many meshes, one task per mesh.
+* :func:`render_tiled` splits one picture of a store into rectangles of
+  pixels, renders each on a worker and stitches them: the same picture,
+  pixel for pixel, as :func:`voxkit.render` of the whole store.
 
 A tile should be seconds of work (Dask's per-task overhead is milliseconds,
 a ``LocalCluster`` takes about 2 s to start): 1024³ tiles (8 shards of 512³)
@@ -24,12 +27,15 @@ from __future__ import annotations
 import json
 import os
 import time
+import uuid
 from pathlib import Path
 from typing import Any, Dict, Iterable, List, Optional, Sequence
 
+import numpy as np
+
 from . import _voxkit
 
-__all__ = ["plan_tiled", "voxelize_tile", "voxelize_tiled", "voxelize_dataset"]
+__all__ = ["plan_tiled", "voxelize_tile", "voxelize_tiled", "finish_tiled", "voxelize_dataset", "render_tiled"]
 
 
 def _require_dask():
@@ -62,11 +68,14 @@ def plan_tiled(
     inside: str = "winding",
     force: bool = False,
     max_memory_mib: int = 4096,
+    pyramid: bool = False,
 ) -> dict:
     """Write the store's metadata and return the plan (``voxkit voxelize
     MESH --voxel-size H --origin X,Y,Z -o STORE --tile-size N --plan``): a
     dict with ``dims``, ``voxel_size``, ``origin``, ``tile_size``,
-    ``tile_counts`` and ``tiles`` (the ``[i, j, k]`` that meet the mesh)."""
+    ``tile_counts``, ``tiles`` (the ``[i, j, k]`` that meet the mesh),
+    ``levels`` and ``tile_levels`` (with ``pyramid``: the levels each tile
+    writes itself; :func:`finish_tiled` builds the others)."""
     return json.loads(
         _voxkit.plan_tiles(
             os.fspath(mesh_path),
@@ -78,8 +87,16 @@ def plan_tiled(
             inside,
             bool(force),
             int(max_memory_mib),
+            bool(pyramid),
         )
     )
+
+
+def finish_tiled(store: os.PathLike, *, max_memory_mib: int = 4096) -> dict:
+    """Build the pyramid levels of a tiled store that span several tiles
+    (``voxkit voxelize … --finish``), once every tile is done: max-pooled
+    from the last level the tiles wrote, in this process."""
+    return json.loads(_voxkit.finish_tiles(os.fspath(store), int(max_memory_mib)))
 
 
 def voxelize_tile(
@@ -196,6 +213,7 @@ def voxelize_tiled(
     progress: bool = True,
     threads: Optional[int] = None,
     max_memory_mib: int = 4096,
+    pyramid: bool = False,
 ) -> dict:
     """Voxelize ``mesh_path`` into the OME-Zarr ``store`` tile by tile.
 
@@ -205,6 +223,9 @@ def voxelize_tiled(
     tile uses every core). Failed tiles are retried ``retries`` times (a
     tile rewrites its whole shards, so a retry repairs a half-written one).
     ``threads`` caps each tile's threads (e.g. ``threads_per_worker``).
+    ``pyramid``: the store gets multiscale levels (as ``--pyramid``); the
+    tiles write those they can and :func:`finish_tiled` the rest here,
+    once every tile succeeded (summary key ``pyramid``).
 
     Returns a summary: ``store``, ``dims``, ``tiles`` (planned), ``done``,
     ``failed`` (list of ``{tile, error}``), ``voxels``, ``seconds``,
@@ -215,7 +236,16 @@ def voxelize_tiled(
     """
     start = time.perf_counter()
     plan = plan_tiled(
-        mesh_path, store, voxel_size, origin, tile_size, mode, inside=inside, force=force, max_memory_mib=max_memory_mib
+        mesh_path,
+        store,
+        voxel_size,
+        origin,
+        tile_size,
+        mode,
+        inside=inside,
+        force=force,
+        max_memory_mib=max_memory_mib,
+        pyramid=pyramid,
     )
     plan_seconds = time.perf_counter() - start
     task = _TileTask(
@@ -233,6 +263,9 @@ def voxelize_tiled(
     reports = _map(task, tiles, client, retries, progress)
     failed = [r for r in reports if "error" in r]
     done = [r for r in reports if "error" not in r]
+    finished = None
+    if plan["levels"] > plan["tile_levels"] and not failed:
+        finished = finish_tiled(store, max_memory_mib=max_memory_mib)
     return {
         "store": os.fspath(store),
         "dims": plan["dims"],
@@ -247,6 +280,7 @@ def voxelize_tiled(
         "max_peak_rss_mib": max((r["peak_rss_mib"] or 0.0 for r in done), default=0.0),
         "max_estimated_mib": max((r["estimated_mib"] for r in done), default=0.0),
         "reports": reports,
+        "pyramid": finished,
     }
 
 
@@ -324,6 +358,106 @@ def voxelize_dataset(
         "skipped": sum(1 for r in ok if r["skipped"]),
         "failed": failed,
         "voxels": sum(r.get("voxels", 0) for r in ok),
+        "seconds": time.perf_counter() - start,
+        "reports": reports,
+    }
+
+
+# The grid a worker process read for the render_tiled call that `token`
+# names: every rectangle of one call on that worker reuses it, and a new
+# call (a store voxelized again since) reads the store anew.
+_RENDER_GRID: Dict[str, Any] = {}
+
+
+class _RenderTask:
+    """One rectangle of pixels of a frame, picklable for the workers."""
+
+    def __init__(self, store, level, max_memory_mib, options, token):
+        self.store, self.level, self.max_memory_mib = store, level, max_memory_mib
+        self.options, self.token = options, token
+
+    def __call__(self, rect):
+        from . import load_grid, render
+
+        t = time.perf_counter()
+        cached = _RENDER_GRID.get("token") == self.token
+        if not cached:
+            _RENDER_GRID.clear()
+            _RENDER_GRID["grid"] = load_grid(self.store, level=self.level, max_memory_mib=self.max_memory_mib)
+            _RENDER_GRID["token"] = self.token
+        load_s = time.perf_counter() - t
+        rgb, depth = render(_RENDER_GRID["grid"], pixels=rect, max_memory_mib=self.max_memory_mib, **self.options)
+        return {
+            "rect": list(rect),
+            "rgb": rgb,
+            "depth": depth,
+            "grid_cached": cached,
+            "load_seconds": load_s,
+            "seconds": time.perf_counter() - t,
+        }
+
+
+def render_tiled(
+    store: os.PathLike,
+    out: Optional[os.PathLike] = None,
+    *,
+    level: int = 0,
+    size: Sequence[int] = (1024, 1024),
+    tile: int = 256,
+    client=None,
+    retries: int = 2,
+    progress: bool = True,
+    overwrite: bool = False,
+    max_memory_mib: int = 4096,
+    **options: Any,
+) -> dict:
+    """Render a voxel store (``level`` of its pyramid) as :func:`voxkit.render`
+    would, split into ``tile`` × ``tile`` rectangles of pixels mapped over
+    ``client`` (or run here without one), then stitched.
+
+    Every worker reads the store (shared filesystem) once per call and
+    renders its rectangles with the frame's camera: each ray depends on its
+    pixel alone, so the stitched picture equals the single-process render
+    pixel for pixel. ``options`` are :func:`voxkit.render`'s (``eye``,
+    ``view``, ``ray``, ``fov``, …). ``out``: also write the picture as PNG.
+
+    Returns ``rgb`` (H, W, 3 uint8), ``depth`` (H, W float32), ``tiles``,
+    ``failed`` (rectangles with their errors: their pixels stay
+    background/``inf``), ``seconds`` and ``reports`` (per rectangle, without
+    the pixels).
+    """
+    w, h = (int(size[0]), int(size[1]))
+    if w <= 0 or h <= 0 or tile <= 0:
+        raise ValueError(f"size and tile must be positive, got size={size!r}, tile={tile!r}")
+    for bad in ("pixels", "volume", "iso", "window", "tf"):
+        if bad in options:
+            raise ValueError(f"render_tiled renders voxel stores; {bad!r} does not apply")
+    start = time.perf_counter()
+    rects = [(x, y, min(tile, w - x), min(tile, h - y)) for y in range(0, h, tile) for x in range(0, w, tile)]
+    task = _RenderTask(os.fspath(store), int(level), int(max_memory_mib), dict(options, size=(w, h)), uuid.uuid4().hex)
+    reports = _map(task, rects, client, retries, progress)
+    bg = np.asarray(options.get("background", (0.07, 0.08, 0.1)), dtype=np.float64)
+    rgb = np.empty((h, w, 3), dtype=np.uint8)
+    rgb[:] = np.clip(bg * 255.0 + 0.5, 0, 255).astype(np.uint8)
+    depth = np.full((h, w), np.inf, dtype=np.float32)
+    failed = []
+    for r in reports:
+        if "error" in r:
+            failed.append(r)
+            continue
+        x, y, rw, rh = r.pop("rect")
+        rgb[y : y + rh, x : x + rw] = r.pop("rgb")
+        depth[y : y + rh, x : x + rw] = r.pop("depth")
+        r["rect"] = [x, y, rw, rh]
+    if out is not None:
+        from . import write_png
+
+        write_png(out, rgb, overwrite=overwrite)
+    return {
+        "rgb": rgb,
+        "depth": depth,
+        "tiles": len(rects),
+        "failed": failed,
         "seconds": time.perf_counter() - start,
         "reports": reports,
     }

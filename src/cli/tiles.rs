@@ -1,7 +1,8 @@
 //! Tiled runs into one OME-Zarr store (`voxkit voxelize MESH … -o out.zarr
-//! --tile-size N --plan | --tile I,J,K`): the options checked, then
-//! [`crate::tiled::plan`] or [`crate::tiled::run_tile`], whose JSON object
-//! is printed (one line; with `--tile` and without `--json`, a summary).
+//! --tile-size N --plan | --tile I,J,K | --finish`): the options checked,
+//! then [`crate::tiled::plan`], [`crate::tiled::run_tile`] or
+//! [`crate::tiled::finish`], whose JSON object is printed (one line; with
+//! `--tile` and without `--json`, a summary).
 
 use std::io::Write;
 
@@ -29,21 +30,38 @@ pub(super) fn run(args: &VoxelizeArgs, out: &mut dyn Write) -> Result<(), CliErr
     if args.inputs.len() != 1 || args.inputs[0].is_dir() || super::batch::is_batch(&args.inputs) {
         return Err(CliError::bad_input("a tiled run takes one mesh"));
     }
-    if args.pyramid || args.measure || args.format.is_some() {
+    if args.measure || args.format.is_some() {
         return Err(CliError::bad_input(
-            "--pyramid, --measure and --format do not apply to tiled runs",
+            "--measure and --format do not apply to tiled runs",
+        ));
+    }
+    if args.pyramid && !args.plan {
+        return Err(CliError::bad_input(
+            "in a tiled run, --pyramid goes with --plan (the tiles then write the levels they can, --finish the rest)",
         ));
     }
     let opts = voxelize_options(args)?;
     let mesh = &args.inputs[0];
     if args.plan {
-        let j = crate::tiled::plan(mesh, &args.output, &opts, tile_size, args.force)?;
+        let j = crate::tiled::plan(
+            mesh,
+            &args.output,
+            &opts,
+            tile_size,
+            args.force,
+            args.pyramid,
+        )?;
+        writeln!(out, "{j}")?;
+        return Ok(());
+    }
+    if args.finish {
+        let j = crate::tiled::finish(&args.output, opts.limit)?;
         writeln!(out, "{j}")?;
         return Ok(());
     }
     let Some(tile) = args.tile else {
         return Err(CliError::bad_input(
-            "--tile-size needs --plan or --tile I,J,K",
+            "--tile-size needs --plan, --tile I,J,K or --finish",
         ));
     };
     let j = crate::tiled::run_tile(mesh, &args.output, &opts, tile_size, tile)?;

@@ -146,8 +146,14 @@ pub struct VoxelizeArgs {
     /// whole-grid run there.
     #[arg(long, value_name = "I,J,K", requires = "tile_size", value_parser = super::tiles::parse_tile)]
     pub tile: Option<[u32; 3]>,
+    /// With --tile-size, after every tile: build the pyramid levels that
+    /// span several tiles (a store planned with --plan --pyramid).
+    #[arg(long, requires = "tile_size", conflicts_with_all = ["tile", "plan"])]
+    pub finish: bool,
     /// With a .zarr output: also write multiscale levels 1, 2, … (occupancy
     /// max-pooled by 2 per level) until the largest extent fits 64 voxels.
+    /// In a tiled run, with --plan (the tiles write what they can, --finish
+    /// the rest).
     #[arg(long)]
     pub pyramid: bool,
     /// Which voxel set.

@@ -462,11 +462,84 @@ pub fn render_grid(
     camera: &Camera,
     opts: &RenderOptions,
 ) -> Result<(RenderImage, RenderStats)> {
+    render_grid_window(occ, xf, camera, opts, PixelWindow::full(opts))
+}
+
+/// A rectangle of pixels of an `opts.width × opts.height` frame: columns
+/// `x..x + width`, rows `y..y + height` (row 0 at the top).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelWindow {
+    /// First column.
+    pub x: u32,
+    /// First row.
+    pub y: u32,
+    /// Columns.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+}
+
+impl PixelWindow {
+    /// The whole frame of `opts`.
+    pub fn full(opts: &RenderOptions) -> PixelWindow {
+        PixelWindow {
+            x: 0,
+            y: 0,
+            width: opts.width,
+            height: opts.height,
+        }
+    }
+}
+
+/// Renders the pixels of `window` of the frame [`render_grid`] renders:
+/// every pixel is the frame's pixel, bit for bit (each ray depends on its
+/// pixel alone), so windows rendered apart (by different processes or
+/// machines: `voxkit.distributed.render_tiled`) stitch into the frame.
+///
+/// ```
+/// use glam::{DVec3, IVec3};
+/// use voxkit::camera::Camera;
+/// use voxkit::grid::{BrickGrid, GridFrame, MemoryLimit};
+/// use voxkit::render::{render_grid, render_grid_window, GridTransform, OccupancyGrid, PixelWindow, RenderOptions};
+/// let grid: BrickGrid = (0..6).map(|i| IVec3::new(i, 2 * i % 7, 3)).collect();
+/// let occ = OccupancyGrid::new(&grid, [8, 8, 8], MemoryLimit::DEFAULT).unwrap();
+/// let xf = GridTransform::from_frame(&GridFrame::new(DVec3::ZERO, 1.0, [8, 8, 8])).unwrap();
+/// let cam = Camera::perspective(DVec3::new(4.0, 9.0, 25.0), DVec3::splat(3.5), DVec3::Y, 25.0);
+/// let opts = RenderOptions { width: 40, height: 30, ..RenderOptions::default() };
+/// let (frame, _) = render_grid(&occ, &xf, &cam, &opts).unwrap();
+/// let win = PixelWindow { x: 13, y: 7, width: 20, height: 16 };
+/// let (part, _) = render_grid_window(&occ, &xf, &cam, &opts, win).unwrap();
+/// assert!(frame.hit.iter().any(|h| h.is_some()));
+/// for r in 0..16 {
+///     let row = (7 + r) * 40 + 13;
+///     assert_eq!(&part.color[r * 20..(r + 1) * 20], &frame.color[row..row + 20]);
+///     assert_eq!(&part.hit[r * 20..(r + 1) * 20], &frame.hit[row..row + 20]);
+/// }
+/// ```
+pub fn render_grid_window(
+    occ: &OccupancyGrid,
+    xf: &GridTransform,
+    camera: &Camera,
+    opts: &RenderOptions,
+    window: PixelWindow,
+) -> Result<(RenderImage, RenderStats)> {
     camera_check(camera)?;
-    let (w, h) = (opts.width, opts.height);
+    let PixelWindow {
+        x: x0,
+        y: y0,
+        width: w,
+        height: h,
+    } = window;
+    // Only the window's buffers are allocated; the frame need only exist.
+    if w == 0 || h == 0 || x0.saturating_add(w) > opts.width || y0.saturating_add(h) > opts.height {
+        return Err(VoxkitError::invalid(format!(
+            "pixel window {w}x{h} at ({x0}, {y0}) is not inside the {}x{} frame",
+            opts.width, opts.height
+        )));
+    }
     check_image(w, h, opts.limit)?;
     let start = Instant::now();
-    let setup = RaySetup::new(camera, xf, occ.bounds(), w, h);
+    let setup = RaySetup::new(camera, xf, occ.bounds(), opts.width, opts.height);
     // Rows write straight into the frame's buffers (no per-row vectors to
     // gather afterwards); only the counters are reduced.
     let n = (w as usize) * (h as usize);
@@ -487,7 +560,7 @@ pub fn render_grid(
             let mut c = cast::CastCounters::default();
             let mut hits = 0u64;
             for x in 0..w as usize {
-                let (ray, seg) = setup.pixel(x as u32, y as u32);
+                let (ray, seg) = setup.pixel(x0 + x as u32, y0 + y as u32);
                 let v = seg.and_then(|s| cast::first_hit(occ, &s, opts.ray, opts.skip, &mut c));
                 if let Some(v) = v {
                     hits += 1;

@@ -172,3 +172,75 @@ fn merged_tiles_equal_the_whole_run_on_meshes_with_holes() {
         InsideTest::Winding,
     );
 }
+
+/// A tiled store with a pyramid: tiles of 1024 write levels 0 and 1
+/// themselves, `finish` pools the rest; every level equals the whole run's
+/// store, and finishing again changes nothing.
+#[test]
+fn tiled_pyramid_levels_equal_the_whole_runs() {
+    use voxkit::grid::MemoryLimit;
+    use voxkit::io::zarr;
+    let dir = std::env::temp_dir().join(format!("voxkit-tiled-pyramid-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    // Spheres on either side of the tile face x = 1024 and one across it.
+    let mut obj = String::new();
+    let mut base = 0;
+    for (c, r) in [(300.0, 250.0), (1024.0, 120.0), (1800.0, 200.0)] {
+        let s = IndexedMesh::uv_sphere(DVec3::new(c, 260.0, 270.0), r, 24, 40);
+        for v in &s.vertices {
+            obj += &format!("v {} {} {}\n", v.x, v.y, v.z);
+        }
+        for f in &s.faces {
+            obj += &format!(
+                "f {} {} {}\n",
+                f[0] + 1 + base,
+                f[1] + 1 + base,
+                f[2] + 1 + base
+            );
+        }
+        base += s.vertices.len() as u32;
+    }
+    let mesh_path = dir.join("spheres.obj");
+    std::fs::write(&mesh_path, obj).unwrap();
+    let opts = VoxelizeOptions::on_lattice(
+        Lattice::VoxelSize {
+            voxel_size: 1.0,
+            origin: Some(DVec3::ZERO),
+        },
+        VoxelizeMode::Thin,
+    );
+    let store = dir.join("t.zarr");
+    let plan = voxkit::tiled::plan(&mesh_path, &store, &opts, 1024, false, true).unwrap();
+    assert_eq!(plan["tile_levels"], 2);
+    let levels = plan["levels"].as_u64().unwrap() as u32;
+    assert!(levels >= 4, "{plan}");
+    for t in plan["tiles"].as_array().unwrap() {
+        let t: Vec<u32> = t
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c.as_u64().unwrap() as u32)
+            .collect();
+        voxkit::tiled::run_tile(&mesh_path, &store, &opts, 1024, [t[0], t[1], t[2]]).unwrap();
+    }
+    let fin = voxkit::tiled::finish(&store, MemoryLimit::DEFAULT).unwrap();
+    assert_eq!(fin["from_level"], 1);
+    let mesh = Mesh::load(&mesh_path).unwrap();
+    let whole = voxelize_mesh(&mesh, &opts).unwrap();
+    let whole_store = dir.join("w.zarr");
+    zarr::write(&whole_store, &whole.grid, &whole.frame, false, levels).unwrap();
+    let read_all = |p: &std::path::Path| -> Vec<BrickGrid> {
+        (0..levels)
+            .map(|l| zarr::read_level(p, l, MemoryLimit::DEFAULT).unwrap().0)
+            .collect()
+    };
+    let want = read_all(&whole_store);
+    assert!(want[0].count() > 100_000);
+    assert_eq!(read_all(&store), want);
+    voxkit::tiled::finish(&store, MemoryLimit::DEFAULT).unwrap();
+    assert_eq!(read_all(&store), want);
+    // A store not planned for tiles has nothing to finish: an error says so.
+    assert!(voxkit::tiled::finish(&whole_store, MemoryLimit::DEFAULT).is_err());
+    let _ = std::fs::remove_dir_all(&dir);
+}
