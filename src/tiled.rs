@@ -7,7 +7,7 @@
 //!   `tile_size`) and lists the tiles whose box meets the mesh
 //!   ([`plan_tiles`]);
 //! - [`run_tile`] checks that the store was planned for the same grid and
-//!   tile size, voxelizes the tile ([`voxelize_tile`]: exactly the whole
+//!   tile size, voxelizes the tile ([`voxelize_tile_among`]: exactly the whole
 //!   run's voxels there) and writes its shards ([`zarr::write_shards`],
 //!   removing its empty ones; never metadata). Tiles are whole shards, so
 //!   tiles never write the same object, a re-run changes nothing, and a
@@ -28,8 +28,13 @@ use crate::error::{Result, VoxkitError};
 use crate::grid::GridFrame;
 use crate::io::zarr::{self, ShardBox};
 use crate::mesh::Mesh;
-use crate::voxelize::pipeline::{QuantizedMesh, VoxelizeOptions, estimate_bytes, quantize_mesh};
-use crate::voxelize::tile::{check_tile_size, plan_tiles, tile_box, tile_counts, voxelize_tile};
+use crate::voxelize::pipeline::{
+    QuantizedMesh, VoxelizeMode, VoxelizeOptions, estimate_bytes, quantize_mesh,
+};
+use crate::voxelize::surface::SurfaceTriangle;
+use crate::voxelize::tile::{
+    bin_triangles, check_tile_size, plan_tiles, tile_box, tile_counts, voxelize_tile_among,
+};
 
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
@@ -86,9 +91,12 @@ pub fn plan(
             source,
         })?;
     }
-    let mesh = Mesh::load(mesh_path)?;
-    let frame = opts.lattice.fit(mesh.bounds())?;
-    let quantized = quantize_mesh(&mesh, &frame, opts.snap);
+    // Loaded, quantized and binned as a tile does: a process that plans and
+    // then runs tiles (a Dask worker, or Python without a cluster) does it
+    // once.
+    let (loaded, _) = LoadedMesh::get(mesh_path)?;
+    let frame = opts.lattice.fit(loaded.bounds)?;
+    let (quantized, _) = loaded.quantized(&frame, opts.snap, tile_size);
     let tiles = plan_tiles(&quantized, frame.dims, tile_size, opts.mode);
     let levels = if pyramid {
         zarr::pyramid_levels(frame.dims)
@@ -211,7 +219,8 @@ impl FileKey {
 }
 
 /// A mesh as a tile needs it: its bounds (to fit the frame), its size (for
-/// the memory estimate) and its quantization in the last frame asked for.
+/// the memory estimate), and its quantization in the last frame asked for
+/// with its triangles binned by tile.
 ///
 /// A process that runs many tiles of one mesh (a Dask worker) keeps the
 /// last one here, so that it parses and quantizes the file once, not once
@@ -225,7 +234,20 @@ struct LoadedMesh {
     bounds: (DVec3, DVec3),
     mesh_bytes: u64,
     mesh: Arc<Mesh>,
-    quantized: Mutex<Option<(GridFrame, bool, Arc<QuantizedMesh>)>>,
+    quantized: Mutex<Option<Prepared>>,
+}
+
+/// The triangles (indices) that can reach each tile.
+type TileBins = std::collections::HashMap<[u32; 3], Vec<u32>>;
+
+/// A mesh quantized in `frame` (with `snap`) and binned by tiles of
+/// `tile_size`.
+struct Prepared {
+    frame: GridFrame,
+    snap: bool,
+    tile_size: u32,
+    quantized: Arc<QuantizedMesh>,
+    bins: Arc<TileBins>,
 }
 
 /// The last mesh a tile of this process loaded.
@@ -254,19 +276,33 @@ impl LoadedMesh {
         Ok((loaded, false))
     }
 
-    /// The mesh quantized in `frame` (cached for the last frame and snap).
-    fn quantized(&self, frame: &GridFrame, snap: bool) -> Arc<QuantizedMesh> {
+    /// The mesh quantized in `frame` and its triangles binned by tiles of
+    /// `tile_size` (cached for the last frame, snap and tile size).
+    fn quantized(
+        &self,
+        frame: &GridFrame,
+        snap: bool,
+        tile_size: u32,
+    ) -> (Arc<QuantizedMesh>, Arc<TileBins>) {
         let mut q = self.quantized.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((f, s, m)) = q.as_ref()
-            && f == frame
-            && *s == snap
+        if let Some(p) = q.as_ref()
+            && p.frame == *frame
+            && p.snap == snap
+            && p.tile_size == tile_size
         {
-            return Arc::clone(m);
+            return (Arc::clone(&p.quantized), Arc::clone(&p.bins));
         }
         *q = None;
-        let m = Arc::new(quantize_mesh(&self.mesh, frame, snap));
-        *q = Some((*frame, snap, Arc::clone(&m)));
-        m
+        let quantized = Arc::new(quantize_mesh(&self.mesh, frame, snap));
+        let bins = Arc::new(bin_triangles(&quantized, frame.dims, tile_size));
+        *q = Some(Prepared {
+            frame: *frame,
+            snap,
+            tile_size,
+            quantized: Arc::clone(&quantized),
+            bins: Arc::clone(&bins),
+        });
+        (quantized, bins)
     }
 }
 
@@ -314,27 +350,34 @@ pub fn run_tile(
             "tile {tile:?} is outside the grid's {n:?} tiles of {tile_size}"
         )));
     }
-    let quantized = loaded.quantized(&frame, opts.snap);
+    let (quantized, bins) = loaded.quantized(&frame, opts.snap, tile_size);
     let (lo, hi) = tile_box(tile, tile_size, frame.dims);
-    // Memory: the mesh as loaded and quantized, plus the kernels' estimate
-    // over the tile's box widened by a brick on each side (the surface is
-    // capped by the box's bricks).
+    // Memory: the mesh as loaded, quantized and binned, plus the kernels'
+    // estimate for the tile's own triangles (its bin) over the tile's box
+    // widened by a brick on each side (the surface is capped by the box's
+    // bricks); solid's winding structures cover the whole mesh. Computed
+    // from the bin, not the mesh: a tile's cost follows its own surface.
     let box_dims = (hi - lo + IVec3::splat(16)).to_array().map(|d| d as usize);
-    let mesh_bytes =
-        loaded.mesh_bytes + 72 * (quantized.triangles.len() + quantized.degenerate.len()) as u64;
-    let estimated = mesh_bytes
-        + estimate_bytes(
-            &quantized.triangles,
-            quantized.segments.len(),
-            box_dims,
-            opts.mode,
-        );
+    let candidates = bins.get(&tile).map_or(&[][..], |b| &b[..]);
+    let mut estimated = loaded.mesh_bytes
+        + 72 * (quantized.triangles.len() + quantized.degenerate.len()) as u64
+        + 4 * bins.values().map(|b| b.len() as u64).sum::<u64>();
+    let own: Vec<SurfaceTriangle> = candidates
+        .iter()
+        .map(|&i| quantized.triangles[i as usize])
+        .collect();
+    estimated += estimate_bytes(&own, quantized.segments.len(), box_dims, opts.mode);
+    drop(own);
+    if opts.mode == VoxelizeMode::Solid {
+        estimated += 200 * quantized.triangles.len() as u64;
+    }
     opts.limit.check(
         &format!("voxelizing tile {tile:?} of {:?}", frame.dims),
         u128::from(estimated),
         1,
     )?;
-    let (grid, stats) = voxelize_tile(&quantized, &frame, opts, tile, tile_size)?;
+    let (grid, stats) =
+        voxelize_tile_among(&quantized, Some(candidates), &frame, opts, tile, tile_size)?;
     drop(quantized);
     let voxels = grid.count();
     let voxelize_ms = ms(t);

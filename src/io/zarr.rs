@@ -297,7 +297,6 @@ fn fill_chunk(buf: &mut [u8], bricks: &[(Voxel, &BrickMask)], base: Voxel) {
 fn encode_shard(
     bricks: &mut [(Voxel, &BrickMask)],
     shard: Voxel,
-    inner: &CodecChain,
     index: &CodecChain,
     stats: &mut ShardStats,
 ) -> Result<Option<Vec<u8>>> {
@@ -311,10 +310,12 @@ fn encode_shard(
     let mut offsets = vec![u64::MAX; 2 * n_chunks];
     let mut out: Vec<u8> = Vec::new();
     let mut buf = vec![0u8; CHUNK_BYTES];
-    let shape = [NonZeroU64::new(CHUNK_EDGE).expect("64 > 0"); 3];
-    let data_type = zarrs::array::data_type::uint8();
-    let fill = FillValue::from(0u8);
-    let options = CodecOptions::default();
+    // The inner chain (`bytes` on uint8, then `zstd` at ZSTD_LEVEL without
+    // checksum: inner_codecs) is the zstd frame of the chunk's bytes; one
+    // compression context serves the whole shard.
+    let zstd_err = |e: std::io::Error| VoxkitError::invalid(format!("encoding a zarr chunk: {e}"));
+    let mut zstd = zstd::bulk::Compressor::new(ZSTD_LEVEL).map_err(zstd_err)?;
+    zstd.include_checksum(false).map_err(zstd_err)?;
     let shard_base = shard << SHARD_BRICK_SHIFT;
     let mut start = 0;
     while start < bricks.len() {
@@ -330,15 +331,7 @@ fn encode_shard(
             ) * 8;
         buf.fill(0);
         fill_chunk(&mut buf, group, base);
-        let encoded = inner
-            .encode(
-                ArrayBytes::new_flen(&buf[..]),
-                &shape,
-                &data_type,
-                &fill,
-                &options,
-            )
-            .map_err(|e| VoxkitError::invalid(format!("encoding a zarr chunk: {e}")))?;
+        let encoded = zstd.compress(&buf).map_err(zstd_err)?;
         offsets[2 * c] = out.len() as u64;
         offsets[2 * c + 1] = encoded.len() as u64;
         out.extend_from_slice(&encoded);
@@ -360,7 +353,7 @@ fn encode_shard(
             &index_shape,
             &zarrs::array::data_type::uint64(),
             &FillValue::from(u64::MAX),
-            &options,
+            &CodecOptions::default(),
         )
         .map_err(|e| VoxkitError::invalid(format!("encoding a zarr shard index: {e}")))?;
     out.extend_from_slice(&encoded_index);
@@ -401,8 +394,13 @@ impl ShardBox {
     }
 }
 
+/// Shards staged before one filesystem sync (bounded so that a whole
+/// store's temporary files never pile up).
+const SHARDS_PER_SYNC: usize = 256;
+
 /// Writes the shards of `grid` (voxels of `level`, inside `dims`) that lie
-/// in `shards` (every shard of the grid when `None`), each atomically; with
+/// in `shards` (every shard of the grid when `None`), each atomically (a
+/// reader sees a shard whole, old or new; durable when this returns); with
 /// a box, the box's shards that hold no voxel are removed, so re-running a
 /// tile repairs whatever an earlier, killed run left. Never writes
 /// metadata. Shards are encoded in parallel on the rayon pool.
@@ -416,43 +414,54 @@ pub fn write_shards(
         .brick_groups(SHARD_BRICK_SHIFT)
         .filter(|(s, _)| shards.is_none_or(|b| b.contains(*s)))
         .collect();
-    let written: Vec<Result<(Voxel, ShardStats)>> = groups
-        .into_par_iter()
-        .map(|(s, mut bricks)| {
-            let mut st = ShardStats::default();
-            let bytes = encode_shard(&mut bricks, s, &inner_codecs(), &index_codecs(), &mut st)?;
-            let path = shard_path(root, level, s);
-            // A killed run may have left its temporary file of this shard.
-            super::remove_temp_files(&path, super::process_gone);
-            match bytes {
-                Some(b) => {
-                    st.shards = 1;
-                    st.bytes = b.len() as u64;
-                    if let Some(dir) = path.parent() {
-                        std::fs::create_dir_all(dir).map_err(|source| VoxkitError::Io {
-                            path: dir.to_path_buf(),
-                            source,
-                        })?;
-                    }
-                    super::atomic_write(&path, true, |w| Ok(w.write_all(&b)?))?;
-                }
-                None => {
-                    st.empty_shards = 1;
-                    remove_if_present(&path)?;
-                }
-            }
-            Ok((s, st))
-        })
-        .collect();
+    // Shards are encoded and staged in parallel, then committed a batch at
+    // a time: one filesystem sync per batch instead of an fsync per shard
+    // (super::commit_staged), renames after it.
     let mut total = ShardStats::default();
     let mut done = std::collections::HashSet::new();
-    for r in written {
-        let (s, st) = r?;
-        done.insert(s);
-        total.shards += st.shards;
-        total.empty_shards += st.empty_shards;
-        total.chunks += st.chunks;
-        total.bytes += st.bytes;
+    let mut groups = groups;
+    while !groups.is_empty() {
+        let batch: Vec<_> = groups.drain(..groups.len().min(SHARDS_PER_SYNC)).collect();
+        let written: Vec<Result<(Voxel, ShardStats, Option<super::StagedFile>)>> = batch
+            .into_par_iter()
+            .map(|(s, mut bricks)| {
+                let mut st = ShardStats::default();
+                let bytes = encode_shard(&mut bricks, s, &index_codecs(), &mut st)?;
+                let path = shard_path(root, level, s);
+                // A killed run may have left its temporary file of this shard.
+                super::remove_temp_files(&path, super::process_gone);
+                let staged = match bytes {
+                    Some(b) => {
+                        st.shards = 1;
+                        st.bytes = b.len() as u64;
+                        if let Some(dir) = path.parent() {
+                            std::fs::create_dir_all(dir).map_err(|source| VoxkitError::Io {
+                                path: dir.to_path_buf(),
+                                source,
+                            })?;
+                        }
+                        Some(super::stage_file(&path, |w| Ok(w.write_all(&b)?))?)
+                    }
+                    None => {
+                        st.empty_shards = 1;
+                        remove_if_present(&path)?;
+                        None
+                    }
+                };
+                Ok((s, st, staged))
+            })
+            .collect();
+        let mut staged = Vec::new();
+        for r in written {
+            let (s, st, f) = r?;
+            done.insert(s);
+            total.shards += st.shards;
+            total.empty_shards += st.empty_shards;
+            total.chunks += st.chunks;
+            total.bytes += st.bytes;
+            staged.extend(f);
+        }
+        super::commit_staged(staged)?;
     }
     if let Some(b) = shards {
         for s in b.iter().filter(|s| !done.contains(s)) {
@@ -721,7 +730,6 @@ fn read_level_unguarded(
         )));
     }
     let dims: Dims = [shape[2], shape[1], shape[0]].map(|d| d as usize);
-    super::voxels::check_sparse_budget(dims, limit, &format!("reading {}", path.display()))?;
     let frame = GridFrame::new(
         meta.frame.origin,
         meta.frame.voxel_size * (1u64 << level) as f64,
@@ -749,6 +757,12 @@ fn read_level_unguarded(
             .map_or(0, |c| c.iter().map(|n| u128::from(n.get())).product());
         limit.check(&format!("a chunk of {}", path.display()), chunk, 1)?;
     }
+    // The grid's size shows only as shards decode: bricks are counted as
+    // they come and the read stops at the limit (overshooting by at most a
+    // shard per thread), rather than charging the bounding box, which for
+    // a surface in a 16384³ store is almost all empty.
+    let bricks_read = std::sync::atomic::AtomicU64::new(0);
+    let what = format!("reading {}", path.display());
     let decoded: Vec<Result<ShardVoxels>> = present
         .into_par_iter()
         .map(|idx| {
@@ -768,6 +782,9 @@ fn read_level_unguarded(
                 let (start, cs) = (subset.start(), subset.shape());
                 take([start[0], start[1], start[2]], cs, &bytes);
             }
+            let n = (parts.len() + loose.brick_count()) as u64;
+            let total = bricks_read.fetch_add(n, std::sync::atomic::Ordering::Relaxed) + n;
+            limit.check(&what, u128::from(total), 96)?;
             Ok((parts, loose))
         })
         .collect();

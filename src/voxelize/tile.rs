@@ -112,17 +112,49 @@ pub fn plan_tiles(
     }
     let mut hit = std::collections::BTreeSet::new();
     let segs = mesh.segments.iter().map(|s| reach(s));
-    for (lo, hi) in mesh.triangles.iter().map(|t| reach(t)).chain(segs) {
-        let t = |c: i32, a: usize| (c.max(0) as u32 / tile_size).min(n[a] - 1);
-        for z in t(lo.z, 2)..=t(hi.z, 2) {
-            for y in t(lo.y, 1)..=t(hi.y, 1) {
-                for x in t(lo.x, 0)..=t(hi.x, 0) {
-                    hit.insert([z, y, x]);
-                }
+    for r in mesh.triangles.iter().map(|t| reach(t)).chain(segs) {
+        for_tiles_reached(r, n, tile_size, |[x, y, z]| {
+            hit.insert([z, y, x]);
+        });
+    }
+    hit.into_iter().map(|[z, y, x]| [x, y, z]).collect()
+}
+
+/// Calls `f` with every tile (of `n` tiles of `tile_size`) that the reach
+/// `(lo, hi)` (inclusive voxels) meets.
+fn for_tiles_reached(
+    (lo, hi): (Voxel, Voxel),
+    n: [u32; 3],
+    tile_size: u32,
+    mut f: impl FnMut([u32; 3]),
+) {
+    let t = |c: i32, a: usize| (c.max(0) as u32 / tile_size).min(n[a] - 1);
+    for z in t(lo.z, 2)..=t(hi.z, 2) {
+        for y in t(lo.y, 1)..=t(hi.y, 1) {
+            for x in t(lo.x, 0)..=t(hi.x, 0) {
+                f([x, y, z]);
             }
         }
     }
-    hit.into_iter().map(|[z, y, x]| [x, y, z]).collect()
+}
+
+/// For each tile, the triangles of `mesh` (indices, ascending) whose reach
+/// meets it: one pass over the mesh, so that a process voxelizing many
+/// tiles of one mesh ([`voxelize_tile_among`]) does not scan every triangle
+/// for every tile.
+pub fn bin_triangles(
+    mesh: &QuantizedMesh,
+    dims: [usize; 3],
+    tile_size: u32,
+) -> std::collections::HashMap<[u32; 3], Vec<u32>> {
+    let n = tile_counts(dims, tile_size);
+    let mut bins: std::collections::HashMap<[u32; 3], Vec<u32>> = Default::default();
+    for (i, t) in mesh.triangles.iter().enumerate() {
+        for_tiles_reached(reach(&t[..]), n, tile_size, |k| {
+            bins.entry(k).or_default().push(i as u32)
+        });
+    }
+    bins
 }
 
 /// What one tile's voxelization did.
@@ -145,6 +177,20 @@ pub fn voxelize_tile(
     tile: [u32; 3],
     tile_size: u32,
 ) -> Result<(BrickGrid, TileStats)> {
+    voxelize_tile_among(mesh, None, frame, opts, tile, tile_size)
+}
+
+/// [`voxelize_tile`], looking for the tile's triangles among `candidates`
+/// only (indices into `mesh.triangles`: the tile's bin of
+/// [`bin_triangles`], a superset of them) instead of among all.
+pub fn voxelize_tile_among(
+    mesh: &QuantizedMesh,
+    candidates: Option<&[u32]>,
+    frame: &GridFrame,
+    opts: &VoxelizeOptions,
+    tile: [u32; 3],
+    tile_size: u32,
+) -> Result<(BrickGrid, TileStats)> {
     if tile_size == 0 || !tile_size.is_multiple_of(8) {
         return Err(VoxkitError::invalid(format!(
             "tile size {tile_size} must be a positive multiple of 8 (whole bricks)"
@@ -159,12 +205,19 @@ pub fn voxelize_tile(
     }
     let region = tile_box(tile, tile_size, dims);
     let mut stats = TileStats::default();
-    let tris: Vec<SurfaceTriangle> = mesh
-        .triangles
-        .par_iter()
-        .filter(|t| meets(reach(&t[..]), region))
-        .copied()
-        .collect();
+    let tris: Vec<SurfaceTriangle> = match candidates {
+        Some(c) => c
+            .iter()
+            .map(|&i| mesh.triangles[i as usize])
+            .filter(|t| meets(reach(&t[..]), region))
+            .collect(),
+        None => mesh
+            .triangles
+            .par_iter()
+            .filter(|t| meets(reach(&t[..]), region))
+            .copied()
+            .collect(),
+    };
     stats.triangles = tris.len();
     let kk = opts.snap && opts.kahan_kelsen;
     let mut grid = match opts.mode {

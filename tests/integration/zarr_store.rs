@@ -236,3 +236,33 @@ fn rewriting_a_box_of_shards_repairs_torn_and_stale_shards() {
     assert!(!path.join("0/c/0/0/1").exists() && !path.join("0/c/0/1/2").exists());
     assert_eq!(zarr::read(&path, MemoryLimit::DEFAULT).unwrap().0, fewer);
 }
+
+/// The reader charges what the store holds, not its box: a few voxels in a
+/// 16384³ store read under a 16 MiB limit; a store holding more than the
+/// limit is refused with the limit's error.
+#[test]
+fn reading_a_sparse_store_is_charged_by_its_bricks() {
+    let dir = temp_dir("sparse-cap");
+    let dims = [16384, 16384, 16384];
+    let grid: BrickGrid = [
+        IVec3::new(0, 0, 0),
+        IVec3::new(16383, 9000, 3),
+        IVec3::new(5000, 5, 16383),
+    ]
+    .into_iter()
+    .collect();
+    let frame = GridFrame::new(DVec3::ZERO, 1.0, dims);
+    let path = dir.join("big.zarr");
+    zarr::write(&path, &grid, &frame, false, 1).unwrap();
+    let small = MemoryLimit::new(16 << 20);
+    assert_eq!(zarr::read(&path, small).unwrap().0, grid);
+    // 40,000 bricks (about 3.7 MiB at 96 bytes each) against a 1 MiB limit.
+    let many: BrickGrid = (0..40_000)
+        .map(|i| IVec3::new(8 * (i % 200), 8 * (i / 200), 0))
+        .collect();
+    zarr::write(&path, &many, &frame, true, 1).unwrap();
+    let err = zarr::read(&path, MemoryLimit::new(1 << 20)).unwrap_err();
+    assert!(matches!(err, voxkit::VoxkitError::Limits { .. }), "{err}");
+    assert_eq!(zarr::read(&path, small).unwrap().0, many);
+    let _ = std::fs::remove_dir_all(&dir);
+}
