@@ -58,25 +58,16 @@ where
             path.display()
         )));
     }
-    let tmp = temp_path(path);
-    let file = fs::OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(&tmp)
-        .map_err(|e| VoxkitError::Io {
-            path: tmp.clone(),
-            source: e,
-        })?;
-    // Removes the temporary file on every way out but the rename: an error,
-    // and also a panic unwinding through `fill` (batch mode catches those
-    // per mesh and goes on, so nothing may be left behind).
-    let mut cleanup = RemoveOnDrop(Some(tmp.clone()));
-    let mut w = BufWriter::new(file);
-    fill(&mut w)?;
-    let file = w.into_inner().map_err(|e| io_err(e.into_error()))?;
-    file.sync_all().map_err(io_err)?;
-    fs::rename(&tmp, path).map_err(io_err)?;
-    cleanup.0 = None;
+    // The staged file removes its temporary on every way out but the
+    // rename: an error, and also a panic unwinding through `fill` (batch
+    // mode catches those per mesh and goes on, so nothing may be left).
+    let mut staged = stage_file(path, fill)?;
+    staged.file.sync_all().map_err(io_err)?;
+    let tmp = staged.tmp.0.take().unwrap_or_default();
+    if let Err(e) = fs::rename(&tmp, path) {
+        staged.tmp.0 = Some(tmp);
+        return Err(io_err(e));
+    }
     Ok(())
 }
 
@@ -86,6 +77,7 @@ where
 /// Dropped uncommitted, its temporary file is deleted.
 pub(crate) struct StagedFile {
     path: PathBuf,
+    file: fs::File,
     tmp: RemoveOnDrop,
 }
 
@@ -104,17 +96,18 @@ where
             path: tmp.clone(),
             source: e,
         })?;
-    let staged = StagedFile {
-        path: path.to_path_buf(),
-        tmp: RemoveOnDrop(Some(tmp.clone())),
-    };
+    let cleanup = RemoveOnDrop(Some(tmp.clone()));
     let mut w = BufWriter::new(file);
     fill(&mut w)?;
-    w.into_inner().map_err(|e| VoxkitError::Io {
+    let file = w.into_inner().map_err(|e| VoxkitError::Io {
         path: tmp,
         source: e.into_error(),
     })?;
-    Ok(staged)
+    Ok(StagedFile {
+        path: path.to_path_buf(),
+        file,
+        tmp: cleanup,
+    })
 }
 
 /// Makes staged files durable and puts them in place: one `syncfs` of the
@@ -144,17 +137,16 @@ pub(crate) fn commit_staged(files: Vec<StagedFile>) -> Result<()> {
 #[cfg(target_os = "linux")]
 fn sync_staged(files: &[StagedFile]) -> Result<()> {
     use std::os::fd::AsRawFd;
-    let Some(tmp) = files.first().and_then(|f| f.tmp.0.as_deref()) else {
+    let Some(first) = files.first() else {
         return Ok(());
     };
-    let io_err = |source| VoxkitError::Io {
-        path: tmp.to_path_buf(),
-        source,
-    };
-    let f = fs::File::open(tmp).map_err(io_err)?;
-    // SAFETY: `f` stays open for the call, which only reads the descriptor.
-    if unsafe { libc::syncfs(f.as_raw_fd()) } != 0 {
-        return Err(io_err(std::io::Error::last_os_error()));
+    // SAFETY: the descriptor belongs to `first.file`, open for the whole
+    // call; syncfs only reads it.
+    if unsafe { libc::syncfs(first.file.as_raw_fd()) } != 0 {
+        return Err(VoxkitError::Io {
+            path: first.path.clone(),
+            source: std::io::Error::last_os_error(),
+        });
     }
     Ok(())
 }
@@ -162,13 +154,11 @@ fn sync_staged(files: &[StagedFile]) -> Result<()> {
 /// One `fsync` per staged file (no `syncfs` here).
 #[cfg(not(target_os = "linux"))]
 fn sync_staged(files: &[StagedFile]) -> Result<()> {
-    for tmp in files.iter().filter_map(|f| f.tmp.0.as_deref()) {
-        fs::File::open(tmp)
-            .and_then(|h| h.sync_all())
-            .map_err(|source| VoxkitError::Io {
-                path: tmp.to_path_buf(),
-                source,
-            })?;
+    for f in files {
+        f.file.sync_all().map_err(|source| VoxkitError::Io {
+            path: f.path.clone(),
+            source,
+        })?;
     }
     Ok(())
 }
