@@ -166,16 +166,6 @@ fn group_attributes(
     attrs
 }
 
-/// The codec chain of the inner chunks (`bytes` + `zstd`), shared by the
-/// array's metadata and the shard assembly.
-fn inner_codecs() -> CodecChain {
-    CodecChain::new(
-        vec![],
-        Arc::new(BytesCodec::default()),
-        vec![Arc::new(ZstdCodec::new(ZSTD_LEVEL, false))],
-    )
-}
-
 /// The codec chain of the shard index (`bytes` little-endian + `crc32c`).
 fn index_codecs() -> CodecChain {
     CodecChain::new(
@@ -311,7 +301,7 @@ fn encode_shard(
     let mut out: Vec<u8> = Vec::new();
     let mut buf = vec![0u8; CHUNK_BYTES];
     // The inner chain (`bytes` on uint8, then `zstd` at ZSTD_LEVEL without
-    // checksum: inner_codecs) is the zstd frame of the chunk's bytes; one
+    // checksum: level_array) is the zstd frame of the chunk's bytes; one
     // compression context serves the whole shard.
     let zstd_err = |e: std::io::Error| VoxkitError::invalid(format!("encoding a zarr chunk: {e}"));
     let mut zstd = zstd::bulk::Compressor::new(ZSTD_LEVEL).map_err(zstd_err)?;
@@ -869,8 +859,11 @@ fn read_own_shard(
         .chunks_exact(8)
         .map(|w| u64::from_ne_bytes(w.try_into().expect("8 bytes")))
         .collect();
-    let inner = inner_codecs();
-    let chunk_shape = [NonZeroU64::new(CHUNK_EDGE).expect("64 > 0"); 3];
+    // The inner chain is a zstd frame of the chunk's bytes (level_array):
+    // one decompression context and one buffer serve the whole shard, as
+    // one compression context does in encode_shard.
+    let mut zstd = zstd::bulk::Decompressor::new().map_err(|e| damaged(&format!("zstd: {e}")))?;
+    let mut decoded = Vec::with_capacity(CHUNK_BYTES);
     let base = [s.z, s.y, s.x].map(|c| c as u64 * SHARD_EDGE);
     for (c, e) in entries.chunks_exact(2).enumerate() {
         let (offset, len) = (e[0], e[1]);
@@ -882,15 +875,9 @@ fn read_own_shard(
             .filter(|&end| end <= body_len as u64)
             .map(|end| offset as usize..end as usize)
             .ok_or_else(|| damaged(&format!("inner chunk {c} lies outside the file")))?;
-        let decoded = inner
-            .decode(
-                std::borrow::Cow::Borrowed(&bytes[range]),
-                &chunk_shape,
-                &zarrs::array::data_type::uint8(),
-                &FillValue::from(0u8),
-                &options,
-            )
-            .and_then(|b| Ok(b.into_fixed()?.into_owned()))
+        decoded.clear();
+        // Capacity CHUNK_BYTES: a frame decoding to more is an error.
+        zstd.decompress_to_buffer(&bytes[range], &mut decoded)
             .map_err(|e| damaged(&format!("inner chunk {c}: {e}")))?;
         if decoded.len() != CHUNK_BYTES {
             return Err(damaged(&format!(
