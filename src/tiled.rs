@@ -73,19 +73,8 @@ pub fn plan(
 ) -> Result<serde_json::Value> {
     check_tile_size(tile_size)?;
     check_store_path(store)?;
+    zarr::check_replaceable(store, force, "plan it anew")?;
     if store.exists() {
-        if !force {
-            return Err(VoxkitError::invalid(format!(
-                "{} exists (use --force to plan it anew)",
-                store.display()
-            )));
-        }
-        if !store.join("zarr.json").is_file() {
-            return Err(VoxkitError::invalid(format!(
-                "{} exists and is not a Zarr store: not replacing it",
-                store.display()
-            )));
-        }
         std::fs::remove_dir_all(store).map_err(|source| VoxkitError::Io {
             path: store.to_path_buf(),
             source,

@@ -520,20 +520,7 @@ pub fn write(
     overwrite: bool,
     levels: u32,
 ) -> Result<ShardStats> {
-    if path.exists() {
-        if !overwrite {
-            return Err(VoxkitError::invalid(format!(
-                "{} exists (use --force to overwrite)",
-                path.display()
-            )));
-        }
-        if !path.join("zarr.json").is_file() {
-            return Err(VoxkitError::invalid(format!(
-                "{} exists and is not a Zarr store: not replacing it",
-                path.display()
-            )));
-        }
-    }
+    check_replaceable(path, overwrite, "overwrite")?;
     let tmp = super::temp_path(path);
     let cleanup = RemoveDirOnDrop(Some(tmp.clone()));
     create(&tmp, frame, levels.max(1), None)?;
@@ -562,6 +549,29 @@ pub fn write(
     }
     std::mem::forget(cleanup);
     Ok(stats)
+}
+
+/// Whether `path` may be (re)written as a store: it does not exist, or
+/// `overwrite` and it is a Zarr store (has a `zarr.json`): voxkit never
+/// replaces a directory it did not write. `verb` names what `--force` does
+/// in the refusal ("overwrite", "plan it anew").
+pub(crate) fn check_replaceable(path: &Path, overwrite: bool, verb: &str) -> Result<()> {
+    if !path.exists() {
+        return Ok(());
+    }
+    if !overwrite {
+        return Err(VoxkitError::invalid(format!(
+            "{} exists (use --force to {verb})",
+            path.display()
+        )));
+    }
+    if !path.join("zarr.json").is_file() {
+        return Err(VoxkitError::invalid(format!(
+            "{} exists and is not a Zarr store: not replacing it",
+            path.display()
+        )));
+    }
+    Ok(())
 }
 
 /// Removes the directory it holds when dropped (a store being built).

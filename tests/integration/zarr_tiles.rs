@@ -244,3 +244,49 @@ fn tiled_pyramid_levels_equal_the_whole_runs() {
     assert!(voxkit::tiled::finish(&whole_store, MemoryLimit::DEFAULT).is_err());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A process keeps the mesh it loaded for the next tile; a mesh file
+/// rewritten between tiles is read again, never served stale.
+#[test]
+fn a_rewritten_mesh_is_reloaded_between_tiles() {
+    let dir = std::env::temp_dir().join(format!("voxkit-tile-reload-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let mesh_path = dir.join("m.obj");
+    let write_obj = |s: &IndexedMesh, extra: &str| {
+        let mut obj = String::new();
+        for v in &s.vertices {
+            obj += &format!("v {} {} {}\n", v.x, v.y, v.z);
+        }
+        for f in &s.faces {
+            obj += &format!("f {} {} {}\n", f[0] + 1, f[1] + 1, f[2] + 1);
+        }
+        std::fs::write(&mesh_path, obj + extra).unwrap();
+    };
+    let opts = VoxelizeOptions::on_lattice(
+        Lattice::VoxelSize {
+            voxel_size: 1.0,
+            origin: Some(DVec3::ZERO),
+        },
+        VoxelizeMode::Thin,
+    );
+    let store = dir.join("t.zarr");
+    let big = IndexedMesh::uv_sphere(DVec3::splat(200.0), 150.0, 16, 24);
+    write_obj(&big, "");
+    voxkit::tiled::plan(&mesh_path, &store, &opts, 512, false, false).unwrap();
+    let first = voxkit::tiled::run_tile(&mesh_path, &store, &opts, 512, [0, 0, 0]).unwrap();
+    let again = voxkit::tiled::run_tile(&mesh_path, &store, &opts, 512, [0, 0, 0]).unwrap();
+    assert_eq!(again["mesh_cached"], true);
+    assert_eq!(again["voxels"], first["voxels"]);
+    // Same bounds (the store's frame still fits), one more triangle inside.
+    write_obj(
+        &big,
+        "v 150 150 150\nv 250 150 150\nv 150 250 160\nf -3 -2 -1\n",
+    );
+    let third = voxkit::tiled::run_tile(&mesh_path, &store, &opts, 512, [0, 0, 0]).unwrap();
+    assert_eq!(third["mesh_cached"], false);
+    let want = voxelize_mesh(&Mesh::load(&mesh_path).unwrap(), &opts).unwrap();
+    assert_eq!(third["voxels"].as_u64().unwrap(), want.grid.count());
+    assert!(third["voxels"].as_u64() > first["voxels"].as_u64());
+    let _ = std::fs::remove_dir_all(&dir);
+}
