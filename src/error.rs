@@ -71,6 +71,30 @@ pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
 /// Result alias used across the crate.
 pub type Result<T, E = VoxkitError> = std::result::Result<T, E>;
 
+/// A copy of the error: an I/O error keeps its kind and message (what
+/// `std::io::Error` lets a copy keep).
+impl Clone for VoxkitError {
+    fn clone(&self) -> Self {
+        match self {
+            VoxkitError::Invalid(s) => VoxkitError::Invalid(s.clone()),
+            VoxkitError::Limits {
+                what,
+                needed,
+                limit,
+            } => VoxkitError::Limits {
+                what: what.clone(),
+                needed: *needed,
+                limit: *limit,
+            },
+            VoxkitError::Unsupported(s) => VoxkitError::Unsupported(s.clone()),
+            VoxkitError::Io { path, source } => VoxkitError::Io {
+                path: path.clone(),
+                source: std::io::Error::new(source.kind(), source.to_string()),
+            },
+        }
+    }
+}
+
 impl VoxkitError {
     /// Shorthand for [`VoxkitError::Invalid`].
     pub fn invalid(msg: impl Into<String>) -> Self {

@@ -6,7 +6,9 @@
 //! file's hidden layers; each also printed to stderr as `warning: …`),
 //! `dims`, `voxels`, for grids `tiles` (the grid's tiles), `stored_bricks`
 //! (bricks with flags of their own) and `full_bricks` (bricks sharing the
-//! full slot), `ray`, `skip`, `size`, `rays`, `hits`,
+//! full slot); for a `.zarr` store voxkit wrote (read chunk by chunk as the
+//! rays reach it, never whole: [`PagedOccupancy`]) `stored_chunks`,
+//! `chunks_decoded` and `pages_built` instead of the voxel counts; `ray`, `skip`, `size`, `rays`, `hits`,
 //! `voxels_visited`, `bricks_skipped`, `load_ms` (reading, and voxelizing a
 //! mesh), `prepare_ms` (render structures), `render_ms` (per frame; the
 //! median over `--turntable` frames and `--reps` repetitions), `frames`, `memory_bytes` (render structures
@@ -24,10 +26,12 @@ use super::CliError;
 use super::voxelize::{ModeArg, peak_rss_mib};
 use crate::camera::{Camera, SceneAxes, ViewPreset};
 use crate::grid::{BrickGrid, GridFrame, MemoryLimit, ScalarVolume};
+use crate::io::zarr::ChunkReader;
 use crate::mesh::Mesh;
 use crate::render::{
-    GridTransform, NormalMode, OccupancyGrid, RayKind, RenderImage, RenderOptions, RenderStats,
-    Sampling, TransferFunction, VolumeMode, VolumeOptions, VolumeScene, render_grid, render_volume,
+    GridTransform, NormalMode, OccupancyGrid, PagedOccupancy, RayKind, RenderImage, RenderOptions,
+    RenderStats, Sampling, TransferFunction, VolumeMode, VolumeOptions, VolumeScene, render_grid,
+    render_volume,
 };
 use crate::voxelize::pipeline::{VoxelizeOptions, voxelize_mesh};
 
@@ -207,9 +211,11 @@ struct Scene {
     mesh: Option<Mesh>,
 }
 
-/// A loaded input: a voxel grid or a scalar volume.
+/// A loaded input: a voxel grid, a voxel store read as rays reach it, or
+/// a scalar volume.
 enum Input {
     Grid(Box<Scene>),
+    Store(Box<PagedOccupancy>, GridTransform),
     Volume(Box<ScalarVolume>),
 }
 
@@ -266,6 +272,12 @@ fn load(
             let mut scene = Scene::from_frame(vox.grid, &vox.frame, SceneAxes::Z_UP)?;
             scene.colors = Some(vox.colors);
             Ok(Input::Grid(Box::new(scene)))
+        }
+        "zarr" if let Some(reader) = ChunkReader::open(path, 0, limit)? => {
+            // A store voxkit wrote: only the chunks the rays reach are read.
+            let xf = GridTransform::from_frame(reader.frame())?;
+            let paged = PagedOccupancy::new(reader, limit)?;
+            Ok(Input::Store(Box::new(paged), xf))
         }
         "binvox" | "zarr" => {
             let (grid, frame, w) = crate::io::read_voxels_warned(path, limit)?;
@@ -402,7 +414,7 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let mut warnings = Vec::new();
     let input = load(&args, limit, &mut warnings)?;
     let load_ms = ms(t);
-    if matches!(input, Input::Grid(_))
+    if matches!(input, Input::Grid(_) | Input::Store(..))
         && (args.volume.is_some()
             || args.iso.is_some()
             || args.window.is_some()
@@ -441,6 +453,22 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
             info.insert("full_bricks".into(), occ.full_bricks().into());
             (Renderer::Grid(occ), Some(scene))
         }
+        Input::Store(paged, xf) => {
+            info.insert("kind".into(), "grid".into());
+            info.insert("dims".into(), serde_json::json!(paged.dims()));
+            info.insert("stored_chunks".into(), paged.stored_chunks().into());
+            let scene = Scene {
+                grid: BrickGrid::new(),
+                dims: paged.dims(),
+                xf,
+                // Only mesh measures read it; a store has no mesh.
+                voxel_size: 1.0,
+                colors: None,
+                axes: SceneAxes::Y_UP,
+                mesh: None,
+            };
+            (Renderer::Store(paged), Some(Box::new(scene)))
+        }
         Input::Volume(vol) => {
             let vopts = volume_options(&args, &vol)?;
             info.insert("kind".into(), "volume".into());
@@ -466,6 +494,7 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     };
     let (lo, hi) = match &renderer {
         Renderer::Grid(occ) => crate::render::occupied_world_box(occ, &xf),
+        Renderer::Store(paged) => crate::render::occupied_world_box(paged.as_ref(), &xf),
         Renderer::Volume(vs, _) => {
             let d = vs.dims().map(|x| x as f64);
             xf.world_bounds(DVec3::splat(-0.5), DVec3::from_array(d) - 0.5)
@@ -551,6 +580,11 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let obj = j.as_object_mut().expect("json! of an object literal");
     obj.extend(info);
     obj.insert("warnings".into(), serde_json::json!(warnings));
+    if let Renderer::Store(paged) = &renderer {
+        // What the rays reached of the store (all frames).
+        obj.insert("chunks_decoded".into(), paged.chunks_decoded().into());
+        obj.insert("pages_built".into(), paged.pages_built().into());
+    }
     if args.measure {
         let t = Instant::now();
         let six = RenderOptions {
@@ -559,7 +593,7 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         };
         let (reference, _) = renderer.render(&xf, &cam, &six)?;
         let differing = match &renderer {
-            Renderer::Grid(_) => img.differing_hits(&reference),
+            Renderer::Grid(_) | Renderer::Store(_) => img.differing_hits(&reference),
             Renderer::Volume(..) => crate::render::differing_values(&img, &reference),
         };
         obj.insert("differing_pixels".into(), differing.into());
@@ -602,6 +636,7 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
 /// The render structures of the input.
 enum Renderer {
     Grid(OccupancyGrid),
+    Store(Box<PagedOccupancy>),
     Volume(Box<VolumeScene>, VolumeOptions),
 }
 
@@ -614,6 +649,7 @@ impl Renderer {
     ) -> crate::Result<(RenderImage, RenderStats)> {
         match self {
             Renderer::Grid(occ) => render_grid(occ, xf, cam, opts),
+            Renderer::Store(paged) => render_grid(paged.as_ref(), xf, cam, opts),
             Renderer::Volume(vs, vopts) => render_volume(vs, cam, opts, vopts),
         }
     }
@@ -621,6 +657,7 @@ impl Renderer {
     fn heap_bytes(&self) -> usize {
         match self {
             Renderer::Grid(occ) => occ.heap_bytes(),
+            Renderer::Store(paged) => paged.heap_bytes() as usize,
             Renderer::Volume(vs, _) => vs.heap_bytes(),
         }
     }

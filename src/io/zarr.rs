@@ -832,7 +832,6 @@ fn read_own_shard(
     s: Voxel,
     take: &mut impl FnMut([u64; 3], &[u64], &[u8]),
 ) -> Result<()> {
-    use zarrs::array::ArrayToBytesCodecTraits;
     let bytes = match std::fs::read(file) {
         Ok(b) => b,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
@@ -843,32 +842,11 @@ fn read_own_shard(
             });
         }
     };
-    let damaged = |what: &str| {
-        VoxkitError::invalid(format!(
-            "{}: damaged shard ({what}); re-run the tile or voxelization that wrote it",
-            file.display()
-        ))
-    };
+    let damaged = |what: &str| damaged_shard(file, what);
     let Some(body_len) = bytes.len().checked_sub(INDEX_BYTES) else {
         return Err(damaged("shorter than its index"));
     };
-    let n = NonZeroU64::new(CHUNKS_PER_SHARD as u64).expect("8 > 0");
-    let index_shape = [n, n, n, NonZeroU64::new(2).expect("2 > 0")];
-    let options = CodecOptions::default();
-    let index = index_codecs()
-        .decode(
-            std::borrow::Cow::Borrowed(&bytes[body_len..]),
-            &index_shape,
-            &zarrs::array::data_type::uint64(),
-            &FillValue::from(u64::MAX),
-            &options,
-        )
-        .and_then(|b| Ok(b.into_fixed()?.into_owned()))
-        .map_err(|e| damaged(&format!("index: {e}")))?;
-    let entries: Vec<u64> = index
-        .chunks_exact(8)
-        .map(|w| u64::from_ne_bytes(w.try_into().expect("8 bytes")))
-        .collect();
+    let entries = decode_shard_index(&bytes[body_len..]).map_err(|e| damaged(&e))?;
     // The inner chain is a zstd frame of the chunk's bytes (level_array):
     // one decompression context and one buffer serve the whole shard, as
     // one compression context does in encode_shard.
@@ -885,16 +863,8 @@ fn read_own_shard(
             .filter(|&end| end <= body_len as u64)
             .map(|end| offset as usize..end as usize)
             .ok_or_else(|| damaged(&format!("inner chunk {c} lies outside the file")))?;
-        decoded.clear();
-        // Capacity CHUNK_BYTES: a frame decoding to more is an error.
-        zstd.decompress_to_buffer(&bytes[range], &mut decoded)
+        decode_chunk(&mut zstd, &bytes[range], &mut decoded)
             .map_err(|e| damaged(&format!("inner chunk {c}: {e}")))?;
-        if decoded.len() != CHUNK_BYTES {
-            return Err(damaged(&format!(
-                "inner chunk {c} decodes to {} bytes",
-                decoded.len()
-            )));
-        }
         let (cz, cy, cx) = (
             c / (CHUNKS_PER_SHARD * CHUNKS_PER_SHARD),
             c / CHUNKS_PER_SHARD % CHUNKS_PER_SHARD,
@@ -908,6 +878,296 @@ fn read_own_shard(
         take(origin, &[CHUNK_EDGE; 3], &decoded);
     }
     Ok(())
+}
+
+/// The error for a shard that cannot be what its writer wrote.
+fn damaged_shard(file: &Path, what: &str) -> VoxkitError {
+    VoxkitError::invalid(format!(
+        "{}: damaged shard ({what}); re-run the tile or voxelization that wrote it",
+        file.display()
+    ))
+}
+
+/// Decodes a shard's index (the last [`INDEX_BYTES`] of the file) by the
+/// chain that wrote it, checking its crc32c: (offset, length) per inner
+/// chunk, `u64::MAX` twice for an absent one.
+fn decode_shard_index(tail: &[u8]) -> std::result::Result<Vec<u64>, String> {
+    use zarrs::array::ArrayToBytesCodecTraits;
+    let n = NonZeroU64::new(CHUNKS_PER_SHARD as u64).expect("8 > 0");
+    let index_shape = [n, n, n, NonZeroU64::new(2).expect("2 > 0")];
+    let index = index_codecs()
+        .decode(
+            std::borrow::Cow::Borrowed(tail),
+            &index_shape,
+            &zarrs::array::data_type::uint64(),
+            &FillValue::from(u64::MAX),
+            &CodecOptions::default(),
+        )
+        .and_then(|b| Ok(b.into_fixed()?.into_owned()))
+        .map_err(|e| format!("index: {e}"))?;
+    Ok(index
+        .chunks_exact(8)
+        .map(|w| u64::from_ne_bytes(w.try_into().expect("8 bytes")))
+        .collect())
+}
+
+/// Decodes one inner chunk (a zstd frame of its 64³ bytes) into `out`.
+fn decode_chunk(
+    zstd: &mut zstd::bulk::Decompressor<'_>,
+    frame: &[u8],
+    out: &mut Vec<u8>,
+) -> std::result::Result<(), String> {
+    out.clear();
+    if out.capacity() < CHUNK_BYTES {
+        out.reserve_exact(CHUNK_BYTES);
+    }
+    // Capacity CHUNK_BYTES: a frame decoding to more is an error.
+    zstd.decompress_to_buffer(frame, out)
+        .map_err(|e| e.to_string())?;
+    if out.len() != CHUNK_BYTES {
+        return Err(format!("decodes to {} bytes", out.len()));
+    }
+    Ok(())
+}
+
+/// Random access to the 64³ inner chunks of one level of a store laid out
+/// as [`write`] lays it out, for readers that decode only what they need
+/// (the renderer's [`PagedOccupancy`](crate::render::PagedOccupancy)):
+/// every shard's index is read once when opened (the file's tail only, in
+/// parallel), so which chunks hold voxels is known before any is decoded;
+/// then [`ChunkReader::read_chunk`] decodes one chunk from a positioned
+/// read of its bytes.
+#[derive(Debug)]
+pub struct ChunkReader {
+    root: PathBuf,
+    level: u32,
+    frame: GridFrame,
+    /// Shards per axis (x, y, z).
+    shards: [i32; 3],
+    /// Per shard (x fastest): 1 + its entry in `indexes`, or 0 if absent.
+    shard_slot: Vec<u32>,
+    indexes: Vec<ShardIndex>,
+}
+
+/// One present shard's index.
+#[derive(Debug)]
+struct ShardIndex {
+    shard: Voxel,
+    /// Bytes before the index: every listed range must end inside them.
+    body_len: u64,
+    /// (offset, length) per inner chunk, z-major (`cx + 8 cy + 64 cz`).
+    entries: Vec<[u64; 2]>,
+}
+
+/// Inner chunks along each edge of a shard.
+pub const CHUNKS_PER_SHARD_EDGE: i32 = CHUNKS_PER_SHARD as i32;
+
+impl ChunkReader {
+    /// Opens level `level` of the store at `path` for chunk reads, or
+    /// `None` when the store is not laid out as voxkit writes it (read it
+    /// whole with [`read_level`]). `limit` caps the shard table and the
+    /// indexes (checked before reading them).
+    pub fn open(path: &Path, level: u32, limit: MemoryLimit) -> Result<Option<ChunkReader>> {
+        let name = path.display().to_string();
+        crate::guard::contain(&name, "zarrs", || Self::open_unguarded(path, level, limit))?
+    }
+
+    fn open_unguarded(path: &Path, level: u32, limit: MemoryLimit) -> Result<Option<ChunkReader>> {
+        let meta = info(path)?;
+        if level >= meta.levels.max(1) && level > 0 {
+            return Err(VoxkitError::invalid(format!(
+                "{}: level {level} is not in the store ({} levels)",
+                path.display(),
+                meta.levels
+            )));
+        }
+        let store = open_store(path)?;
+        let array = Array::open(store.clone(), &format!("/{level}")).map_err(|e| zerr(path, e))?;
+        if !own_layout(&array, &level_array(&store, path, &meta.frame, level)?) {
+            return Ok(None);
+        }
+        let frame = level_frame(&meta.frame, level);
+        let shards = frame.dims.map(|d| d.div_ceil(SHARD_EDGE as usize) as i32);
+        let n: u128 = shards.iter().map(|&s| s as u128).product();
+        limit.check(&format!("the shard table of {}", path.display()), n, 4)?;
+        let all: Vec<Voxel> = (0..shards[2])
+            .flat_map(|z| {
+                (0..shards[1]).flat_map(move |y| (0..shards[0]).map(move |x| Voxel::new(x, y, z)))
+            })
+            .collect();
+        let read = |s: Voxel| -> Result<Option<ShardIndex>> {
+            use std::os::unix::fs::FileExt;
+            let file = shard_path(path, level, s);
+            let io = |source| VoxkitError::Io {
+                path: file.clone(),
+                source,
+            };
+            let f = match std::fs::File::open(&file) {
+                Ok(f) => f,
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+                Err(e) => return Err(io(e)),
+            };
+            let len = f.metadata().map_err(io)?.len();
+            let damaged = |what: &str| damaged_shard(&file, what);
+            let Some(body_len) = len.checked_sub(INDEX_BYTES as u64) else {
+                return Err(damaged("shorter than its index"));
+            };
+            let mut tail = vec![0u8; INDEX_BYTES];
+            f.read_exact_at(&mut tail, body_len).map_err(io)?;
+            let flat = decode_shard_index(&tail).map_err(|e| damaged(&e))?;
+            let entries: Vec<[u64; 2]> = flat.chunks_exact(2).map(|e| [e[0], e[1]]).collect();
+            for (c, e) in entries.iter().enumerate() {
+                let absent = e[0] == u64::MAX && e[1] == u64::MAX;
+                if !absent && e[0].checked_add(e[1]).is_none_or(|end| end > body_len) {
+                    return Err(damaged(&format!("inner chunk {c} lies outside the file")));
+                }
+            }
+            Ok(Some(ShardIndex {
+                shard: s,
+                body_len,
+                entries,
+            }))
+        };
+        let found: Vec<Option<ShardIndex>> =
+            all.par_iter().map(|&s| read(s)).collect::<Result<_>>()?;
+        let mut shard_slot = vec![0u32; n as usize];
+        let mut indexes = Vec::new();
+        for (i, ix) in found.into_iter().enumerate() {
+            if let Some(ix) = ix {
+                indexes.push(ix);
+                shard_slot[i] = indexes.len() as u32;
+            }
+        }
+        limit.check(
+            &format!("the shard indexes of {}", path.display()),
+            (indexes.len() as u128) * (INDEX_BYTES as u128) + n * 4,
+            1,
+        )?;
+        Ok(Some(ChunkReader {
+            root: path.to_path_buf(),
+            level,
+            frame,
+            shards,
+            shard_slot,
+            indexes,
+        }))
+    }
+
+    /// The level's frame.
+    pub fn frame(&self) -> &GridFrame {
+        &self.frame
+    }
+
+    /// Chunks per axis (x, y, z) covering the level's extents.
+    pub fn chunk_dims(&self) -> [i32; 3] {
+        self.frame
+            .dims
+            .map(|d| d.div_ceil(CHUNK_EDGE as usize) as i32)
+    }
+
+    /// Bytes held (shard table and indexes).
+    pub fn heap_bytes(&self) -> usize {
+        self.shard_slot.capacity() * 4 + self.indexes.len() * (INDEX_BYTES + 64)
+    }
+
+    /// The index entry of chunk `c` (chunk coordinates x, y, z), if listed.
+    fn entry(&self, c: Voxel) -> Option<(&ShardIndex, usize)> {
+        let d = self.chunk_dims();
+        if (0..3).any(|k| c[k] < 0 || c[k] >= d[k]) {
+            return None;
+        }
+        let s = c / CHUNKS_PER_SHARD_EDGE;
+        let si = (s.x + self.shards[0] * (s.y + self.shards[1] * s.z)) as usize;
+        let slot = self.shard_slot[si];
+        if slot == 0 {
+            return None;
+        }
+        let ix = &self.indexes[slot as usize - 1];
+        let l = c - s * CHUNKS_PER_SHARD_EDGE;
+        let k = (l.x + CHUNKS_PER_SHARD_EDGE * (l.y + CHUNKS_PER_SHARD_EDGE * l.z)) as usize;
+        let e = ix.entries[k];
+        (e != [u64::MAX; 2]).then_some((ix, k))
+    }
+
+    /// Whether chunk `c` is stored (an absent chunk is all 0).
+    pub fn is_present(&self, c: Voxel) -> bool {
+        self.entry(c).is_some()
+    }
+
+    /// The stored chunks, shard by shard.
+    pub fn present_chunks(&self) -> impl Iterator<Item = Voxel> + '_ {
+        self.indexes.iter().flat_map(|ix| {
+            ix.entries
+                .iter()
+                .enumerate()
+                .filter(|(_, e)| **e != [u64::MAX; 2])
+                .map(|(k, _)| {
+                    let k = k as i32;
+                    let e = CHUNKS_PER_SHARD_EDGE;
+                    ix.shard * e + Voxel::new(k % e, k / e % e, k / (e * e))
+                })
+        })
+    }
+
+    /// The occupied bricks of chunk `c`: (local brick index
+    /// `bx + 8 by + 64 bz` inside the chunk, mask), empty for an absent
+    /// chunk. Voxels beyond the level's extents are not set.
+    pub fn read_chunk(&self, c: Voxel) -> Result<Vec<(u16, BrickMask)>> {
+        use std::os::unix::fs::FileExt;
+        let Some((ix, k)) = self.entry(c) else {
+            return Ok(Vec::new());
+        };
+        let [offset, len] = ix.entries[k];
+        let file = shard_path(&self.root, self.level, ix.shard);
+        let damaged = |what: String| damaged_shard(&file, &what);
+        let io = |source| VoxkitError::Io {
+            path: file.clone(),
+            source,
+        };
+        // The file may have been rewritten since its index was read.
+        let f = std::fs::File::open(&file).map_err(io)?;
+        if f.metadata().map_err(io)?.len() != ix.body_len + INDEX_BYTES as u64 {
+            return Err(damaged("changed while being read".into()));
+        }
+        let mut frame = vec![0u8; len as usize];
+        f.read_exact_at(&mut frame, offset).map_err(io)?;
+        thread_local! {
+            static DECODER: std::cell::RefCell<Option<(zstd::bulk::Decompressor<'static>, Vec<u8>)>> =
+                const { std::cell::RefCell::new(None) };
+        }
+        DECODER.with(|d| {
+            let mut d = d.borrow_mut();
+            if d.is_none() {
+                let z =
+                    zstd::bulk::Decompressor::new().map_err(|e| damaged(format!("zstd: {e}")))?;
+                *d = Some((z, Vec::with_capacity(CHUNK_BYTES)));
+            }
+            let (zstd, buf) = d.as_mut().expect("just set");
+            decode_chunk(zstd, &frame, buf)
+                .map_err(|e| damaged(format!("inner chunk {k}: {e}")))?;
+            let origin = [c.z, c.y, c.x].map(|v| v as u64 * CHUNK_EDGE);
+            let [nx, ny, nz] = self.frame.dims.map(|d| d as u64);
+            let mut parts = Vec::new();
+            let mut loose = BrickGrid::new();
+            chunk_to_bricks(
+                origin,
+                &[CHUNK_EDGE; 3],
+                &[nz, ny, nx],
+                buf,
+                &mut parts,
+                &mut loose,
+            );
+            debug_assert_eq!(loose.brick_count(), 0, "64³ chunks are brick-aligned");
+            let base = c * 8;
+            Ok(parts
+                .into_iter()
+                .map(|(b, m)| {
+                    let l = b - base;
+                    ((l.x + 8 * l.y + 64 * l.z) as u16, m)
+                })
+                .collect())
+        })
+    }
 }
 
 /// Adds the set voxels of one decoded chunk (`origin` and `cshape` in z, y,

@@ -1,4 +1,4 @@
-//! Casting one discrete ray through an [`OccupancyGrid`] to its first
+//! Casting one discrete ray through a grid's render bricks ([`RenderBricks`]) to its first
 //! occupied voxel, for each ray kind, with or without skipping.
 //!
 //! Every kind walks the same fixed-point [`Segment`] (the pixel ray clipped
@@ -28,7 +28,7 @@ use crate::line::segment::{Frame, Segment};
 use crate::line::tripod6::{JUMP_MAX_DELTA, TripodState};
 
 use super::RayKind;
-use super::occupancy::{OccupancyGrid, word_bit};
+use super::occupancy::{RenderBricks, word_bit};
 
 /// Counters of one ray (summed over an image).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -40,8 +40,8 @@ pub(crate) struct CastCounters {
 }
 
 /// The first occupied voxel along `seg` for `kind`, or `None`.
-pub(crate) fn first_hit(
-    occ: &OccupancyGrid,
+pub(crate) fn first_hit<G: RenderBricks>(
+    occ: &G,
     seg: &Segment,
     kind: RayKind,
     skip: bool,
@@ -225,8 +225,8 @@ impl Stepper for TwentySix {
     }
 }
 
-fn first_hit_exact(
-    occ: &OccupancyGrid,
+fn first_hit_exact<G: RenderBricks>(
+    occ: &G,
     seg: &Segment,
     kind: RayKind,
     skip: bool,
@@ -234,7 +234,7 @@ fn first_hit_exact(
 ) -> Option<IVec3> {
     let f = Frame::new(seg);
     // The segment lies in the grid: its whole path is in-grid.
-    debug_assert!(occ.in_grid(seg.start_voxel()) && occ.in_grid(seg.end_voxel()));
+    debug_assert!(occ.contains_voxel(seg.start_voxel()) && occ.contains_voxel(seg.end_voxel()));
     // Grids are at most MAX_RENDER_DIM voxels per axis: the jump arithmetic
     // is exact in i64 for every in-grid segment.
     debug_assert!(f.d[0] <= JUMP_MAX_DELTA);
@@ -265,8 +265,8 @@ fn first_hit_exact(
 /// The walk of one exact ray from the segment's start voxel: per brick,
 /// jump its empty box when the cloud allows, else visit voxel by voxel.
 #[inline(always)]
-fn walk<S: Stepper>(
-    occ: &OccupancyGrid,
+fn walk<G: RenderBricks, S: Stepper>(
+    occ: &G,
     f: &Frame,
     mut s: S,
     kind: RayKind,
@@ -286,8 +286,8 @@ fn walk<S: Stepper>(
     let margin = i32::from(kind == RayKind::Adaptive);
     loop {
         let b = v >> 3;
-        let bi = occ.brick_index(b);
-        let k = occ.dist[bi];
+        let at = occ.locate(b);
+        let k = occ.cloud(at);
         if skip
             && k >= 1
             && s.may_jump()
@@ -314,7 +314,7 @@ fn walk<S: Stepper>(
                 continue;
             }
         }
-        let flags = &occ.bricks[occ.slot[bi] as usize];
+        let flags = occ.flags(at);
         // A switch to 26 mode in a jumpable brick hands back to the jump test.
         let jumpable = skip && k >= 1 && S::READS_FLAGS;
         // Pointer-offset stepping inside the brick: the bit index
@@ -383,8 +383,8 @@ impl BrickGeometry {
     }
 }
 
-fn first_hit_aw(
-    occ: &OccupancyGrid,
+fn first_hit_aw<G: RenderBricks>(
+    occ: &G,
     seg: &Segment,
     skip: bool,
     n: &mut CastCounters,
@@ -394,8 +394,8 @@ fn first_hit_aw(
     loop {
         let v = s.voxel();
         let bk = v >> 3;
-        let bi = occ.brick_index(bk);
-        let k = occ.dist[bi];
+        let at = occ.locate(bk);
+        let k = occ.cloud(at);
         if skip
             && k >= 1
             && let Some((lo, hi)) = empty_box(bk, k, 0, v)
@@ -408,7 +408,7 @@ fn first_hit_aw(
                 continue;
             }
         }
-        let flags = &occ.bricks[occ.slot[bi] as usize];
+        let flags = occ.flags(at);
         loop {
             let v = s.voxel();
             let (w, bit) = word_bit(v);

@@ -30,6 +30,7 @@ pub mod bricks;
 mod cast;
 pub mod measure;
 mod occupancy;
+mod paged;
 pub mod volume;
 
 use std::time::Instant;
@@ -39,7 +40,8 @@ use rayon::prelude::*;
 
 pub use crate::camera::{Camera, Projection, SceneAxes, ViewPreset};
 pub use bricks::{BrickRange, VolumeBricks};
-pub use occupancy::{MAX_RENDER_DIM, OccupancyGrid};
+pub use occupancy::{BrickFlags, MAX_RENDER_DIM, OccupancyGrid, RenderBricks};
+pub use paged::{PagedBrick, PagedOccupancy};
 pub use volume::{
     EARLY_TERMINATION, RAMP_OPACITY, Sampling, TfPoint, TransferFunction, VolumeMode,
     VolumeOptions, VolumeScene, differing_values, render_volume,
@@ -456,8 +458,8 @@ pub(crate) fn check_image(width: u32, height: u32, limit: MemoryLimit) -> Result
 /// let six = RenderOptions { ray: RayKind::Six, ..opts };
 /// assert_eq!(render_grid(&occ, &xf, &cam, &six).unwrap().0.hit, img.hit);
 /// ```
-pub fn render_grid(
-    occ: &OccupancyGrid,
+pub fn render_grid<G: RenderBricks>(
+    occ: &G,
     xf: &GridTransform,
     camera: &Camera,
     opts: &RenderOptions,
@@ -516,8 +518,8 @@ impl PixelWindow {
 ///     assert_eq!(&part.hit[r * 20..(r + 1) * 20], &frame.hit[row..row + 20]);
 /// }
 /// ```
-pub fn render_grid_window(
-    occ: &OccupancyGrid,
+pub fn render_grid_window<G: RenderBricks>(
+    occ: &G,
     xf: &GridTransform,
     camera: &Camera,
     opts: &RenderOptions,
@@ -539,7 +541,7 @@ pub fn render_grid_window(
     }
     check_image(w, h, opts.limit)?;
     let start = Instant::now();
-    let setup = RaySetup::new(camera, xf, occ.bounds(), opts.width, opts.height);
+    let setup = RaySetup::new(camera, xf, occ.occupied_bounds(), opts.width, opts.height);
     // Rows write straight into the frame's buffers (no per-row vectors to
     // gather afterwards); only the counters are reduced.
     let n = (w as usize) * (h as usize);
@@ -584,6 +586,7 @@ pub fn render_grid_window(
                 )
             },
         );
+    occ.health()?;
     let mut stats = RenderStats {
         rays: n as u64,
         hits,
@@ -599,8 +602,8 @@ pub fn render_grid_window(
 /// ([`ViewPreset::Iso`](crate::camera::ViewPreset)) of the occupied voxels'
 /// world box (the whole grid if empty), perspective with a 35° vertical field
 /// of view, framed for a `width × height` image.
-pub fn default_camera(
-    occ: &OccupancyGrid,
+pub fn default_camera<G: RenderBricks>(
+    occ: &G,
     xf: &GridTransform,
     axes: &crate::camera::SceneAxes,
     width: u32,
@@ -612,12 +615,12 @@ pub fn default_camera(
 }
 
 /// World box of the occupied voxels' cubes (the whole grid if none).
-pub fn occupied_world_box(occ: &OccupancyGrid, xf: &GridTransform) -> (DVec3, DVec3) {
-    match occ.bounds() {
+pub fn occupied_world_box<G: RenderBricks>(occ: &G, xf: &GridTransform) -> (DVec3, DVec3) {
+    match occ.occupied_bounds() {
         Some((a, b)) => xf.world_bounds(a.as_dvec3() - 0.5, b.as_dvec3() + 0.5),
         None => xf.world_bounds(
             DVec3::splat(-0.5),
-            DVec3::from_array(occ.dims().map(|d| d as f64)) - 0.5,
+            DVec3::from_array(occ.grid_dims().map(f64::from)) - 0.5,
         ),
     }
 }
@@ -625,8 +628,13 @@ pub fn occupied_world_box(occ: &OccupancyGrid, xf: &GridTransform) -> (DVec3, DV
 /// The first occupied voxel along a grid-space segment for a ray kind (the
 /// per-pixel kernel of [`render_grid`]); the segment must lie inside the
 /// grid (both end voxels in `0..dims`), else `None`.
-pub fn first_hit(occ: &OccupancyGrid, seg: &Segment, kind: RayKind, skip: bool) -> Option<IVec3> {
-    if !(occ.in_grid(seg.start_voxel()) && occ.in_grid(seg.end_voxel())) {
+pub fn first_hit<G: RenderBricks>(
+    occ: &G,
+    seg: &Segment,
+    kind: RayKind,
+    skip: bool,
+) -> Option<IVec3> {
+    if !(occ.contains_voxel(seg.start_voxel()) && occ.contains_voxel(seg.end_voxel())) {
         return None;
     }
     cast::first_hit(occ, seg, kind, skip, &mut cast::CastCounters::default())
@@ -651,8 +659,8 @@ pub fn first_hit(occ: &OccupancyGrid, seg: &Segment, kind: RayKind, skip: bool) 
 /// assert_eq!((s.start_voxel(), s.end_voxel()), (IVec3::splat(4), IVec3::splat(4)));
 /// assert!(pixel_segment(&occ, &xf, &cam, 32, 32, 0, 0).is_none());
 /// ```
-pub fn pixel_segment(
-    occ: &OccupancyGrid,
+pub fn pixel_segment<G: RenderBricks>(
+    occ: &G,
     xf: &GridTransform,
     camera: &Camera,
     width: u32,
@@ -660,7 +668,7 @@ pub fn pixel_segment(
     x: u32,
     y: u32,
 ) -> Option<Segment> {
-    RaySetup::new(camera, xf, occ.bounds(), width, height)
+    RaySetup::new(camera, xf, occ.occupied_bounds(), width, height)
         .pixel(x, y)
         .1
 }
@@ -675,8 +683,8 @@ pub(crate) fn camera_check(camera: &Camera) -> Result<()> {
 }
 
 /// Lambert from a headlight plus ambient, on the hit voxel's colour.
-fn shade(
-    occ: &OccupancyGrid,
+fn shade<G: RenderBricks>(
+    occ: &G,
     setup: &RaySetup,
     ray: &GridRay,
     v: IVec3,
@@ -694,14 +702,14 @@ fn shade(
     let n_grid = match opts.normals {
         NormalMode::Face => face,
         NormalMode::Smooth => {
-            let g = occ.occupancy_gradient(v);
+            let g = occ.gradient(v);
             if g.length_squared() > 1e-12 { -g } else { face }
         }
     };
     let n = setup.world_normal(n_grid);
     let view = (setup.xf.axes * ray.d).normalize_or_zero();
     let lambert = n.dot(-view).abs() as f32;
-    let base = occ.color(v).map_or(opts.base_color, |c| {
+    let base = occ.voxel_color(v).map_or(opts.base_color, |c| {
         [c[0], c[1], c[2]].map(|x| x as f32 / 255.0)
     });
     let a = opts.ambient.clamp(0.0, 1.0);

@@ -41,11 +41,128 @@ pub(crate) const FULL_SLOT: u32 = 1;
 /// Palette indices per stored brick (`lx + 8 ly + 64 lz`) and the palette.
 pub(crate) type BrickColors = (Vec<[u8; 512]>, Box<[[u8; 4]; 256]>);
 
-/// One stored brick: occupancy and proximity flags.
+/// One brick's flags for the ray caster, in the [`BrickGrid`] mask layout
+/// (word `lz`, bit `lx + 8 ly`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub(crate) struct BrickFlags {
+pub struct BrickFlags {
+    /// Occupied voxels.
     pub occ: BrickMask,
+    /// Proximity flags: the occupancy dilated by one voxel (Chebyshev).
     pub prox: BrickMask,
+}
+
+/// What the ray caster reads of a voxel grid: per brick, its proximity
+/// cloud value and its flags, located once per brick; per hit voxel, the
+/// shading inputs. [`OccupancyGrid`] holds all of it in memory;
+/// [`PagedOccupancy`](super::PagedOccupancy) reads a store's chunks as rays
+/// reach them. One walk ([`render_grid_window`](super::render_grid_window))
+/// serves both, monomorphized.
+pub trait RenderBricks: Sync {
+    /// Where a brick's entries are, found once per brick visit.
+    type At<'a>: Copy
+    where
+        Self: 'a;
+    /// Grid extents in voxels.
+    fn grid_dims(&self) -> [i32; 3];
+    /// Inclusive bounds of the occupied voxels (`None`: nothing occupied).
+    fn occupied_bounds(&self) -> Option<(Voxel, Voxel)>;
+    /// Locates brick `b` (inside the grid).
+    fn locate(&self, b: IVec3) -> Self::At<'_>;
+    /// The proximity cloud at a located brick: a lower bound on the
+    /// Chebyshev distance, in bricks, to the nearest brick holding an
+    /// occupied voxel (0 for those; a smaller value only skips less).
+    fn cloud<'a>(&'a self, at: Self::At<'a>) -> u8;
+    /// The flags of a located brick (exact: they decide pixels).
+    fn flags<'a>(&'a self, at: Self::At<'a>) -> &'a BrickFlags;
+    /// Whether the renders so far read the grid as it is: a structure that
+    /// builds its bricks while rendering reports here what went wrong
+    /// (and every image rendered since is void).
+    fn health(&self) -> Result<()> {
+        Ok(())
+    }
+    /// RGBA of occupied voxel `v`, or `None` without colours.
+    fn voxel_color(&self, _v: Voxel) -> Option<[u8; 4]> {
+        None
+    }
+    /// Whether voxel `v` (any coordinates) is occupied.
+    fn occupied(&self, v: Voxel) -> bool {
+        self.contains_voxel(v) && {
+            let (w, bit) = word_bit(v);
+            self.flags(self.locate(v >> 3)).occ[w] >> bit & 1 == 1
+        }
+    }
+    /// The occupancy gradient at `v`: `Σ o / |o|²` over the occupied
+    /// neighbours `v + o` (26-neighbourhood); its negation is the smooth
+    /// normal. A voxel not on its brick's border reads the 3×3×3 block
+    /// straight from the brick's mask (three words, nine 3-bit rows).
+    fn gradient(&self, v: Voxel) -> glam::DVec3 {
+        let l = v & 7;
+        let interior =
+            self.contains_voxel(v) && l.cmpge(IVec3::ONE).all() && l.cmple(IVec3::splat(6)).all();
+        let mut g = glam::DVec3::ZERO;
+        if interior {
+            let m = &self.flags(self.locate(v >> 3)).occ;
+            for dz in -1..=1i32 {
+                let word = m[(l.z + dz) as usize];
+                for dy in -1..=1i32 {
+                    let row = word >> (8 * (l.y + dy) + l.x - 1) & 7;
+                    if row == 0 {
+                        continue;
+                    }
+                    for dx in -1..=1i32 {
+                        if row >> (dx + 1) & 1 == 1 && (dx, dy, dz) != (0, 0, 0) {
+                            let o = IVec3::new(dx, dy, dz);
+                            g += o.as_dvec3() / o.length_squared() as f64;
+                        }
+                    }
+                }
+            }
+            return g;
+        }
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let o = IVec3::new(dx, dy, dz);
+                    if o != IVec3::ZERO && self.occupied(v + o) {
+                        g += o.as_dvec3() / o.length_squared() as f64;
+                    }
+                }
+            }
+        }
+        g
+    }
+    /// Whether `v` lies in the grid.
+    #[inline(always)]
+    fn contains_voxel(&self, v: Voxel) -> bool {
+        let d = self.grid_dims();
+        (0..3).all(|k| v[k] >= 0 && v[k] < d[k])
+    }
+}
+
+impl RenderBricks for OccupancyGrid {
+    type At<'a> = usize;
+    #[inline(always)]
+    fn grid_dims(&self) -> [i32; 3] {
+        self.dims
+    }
+    fn occupied_bounds(&self) -> Option<(Voxel, Voxel)> {
+        self.bounds
+    }
+    #[inline(always)]
+    fn locate(&self, b: IVec3) -> usize {
+        self.brick_index(b)
+    }
+    #[inline(always)]
+    fn cloud(&self, at: usize) -> u8 {
+        self.dist[at]
+    }
+    #[inline(always)]
+    fn flags(&self, at: usize) -> &BrickFlags {
+        &self.bricks[self.slot[at] as usize]
+    }
+    fn voxel_color(&self, v: Voxel) -> Option<[u8; 4]> {
+        self.color(v)
+    }
 }
 
 /// Occupancy, proximity flags, colours and the brick proximity cloud of a
@@ -319,43 +436,9 @@ impl OccupancyGrid {
 
     /// The occupancy gradient at `v`: `Σ o / |o|²` over the occupied
     /// neighbours `v + o` (26-neighbourhood); its negation is the smooth
-    /// normal. A voxel not on its brick's border reads the 3×3×3 block
-    /// straight from the brick's mask (three words, nine 3-bit rows).
+    /// normal.
     pub fn occupancy_gradient(&self, v: Voxel) -> glam::DVec3 {
-        let l = v & 7;
-        let interior =
-            self.in_grid(v) && l.cmpge(IVec3::ONE).all() && l.cmple(IVec3::splat(6)).all();
-        let mut g = glam::DVec3::ZERO;
-        if interior {
-            let m = &self.bricks[self.slot_of(v) as usize].occ;
-            for dz in -1..=1i32 {
-                let word = m[(l.z + dz) as usize];
-                for dy in -1..=1i32 {
-                    let row = word >> (8 * (l.y + dy) + l.x - 1) & 7;
-                    if row == 0 {
-                        continue;
-                    }
-                    for dx in -1..=1i32 {
-                        if row >> (dx + 1) & 1 == 1 && (dx, dy, dz) != (0, 0, 0) {
-                            let o = IVec3::new(dx, dy, dz);
-                            g += o.as_dvec3() / o.length_squared() as f64;
-                        }
-                    }
-                }
-            }
-            return g;
-        }
-        for dz in -1..=1 {
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    let o = IVec3::new(dx, dy, dz);
-                    if o != IVec3::ZERO && self.is_occupied(v + o) {
-                        g += o.as_dvec3() / o.length_squared() as f64;
-                    }
-                }
-            }
-        }
-        g
+        self.gradient(v)
     }
 
     /// The proximity cloud's value at the brick of voxel `v`.
@@ -386,7 +469,7 @@ fn local_index(v: Voxel) -> usize {
 /// The occupancy of the 3×3×3 bricks around `t`, dilated by one voxel
 /// (Chebyshev) and restricted to `t`: separable, x then y then z, each pass
 /// pulling the facing column, row or layer of the neighbour bricks.
-fn dilate(t: IVec3, occ_at: &impl Fn(IVec3) -> BrickMask) -> BrickMask {
+pub(crate) fn dilate(t: IVec3, occ_at: &impl Fn(IVec3) -> BrickMask) -> BrickMask {
     let dx = |b: IVec3| -> BrickMask {
         let (l, m, r) = (occ_at(b - IVec3::X), occ_at(b), occ_at(b + IVec3::X));
         std::array::from_fn(|z| {

@@ -18,6 +18,7 @@ mod mesh_io;
 mod raster;
 mod render;
 mod render_cli;
+mod render_store;
 mod render_volume;
 mod report_cli;
 mod solid;
