@@ -367,16 +367,19 @@ impl PagedOccupancy {
         self.pages[i].get_or_init(|| {
             let c = self.near[i];
             let base = c * CB;
-            // The occupancy of the 3×3×3 chunks around, as a 24³ box of
-            // bricks (x fastest), for the dilation and the cloud.
-            const N: i32 = 3 * CB;
-            let lo = base - CB;
-            let mut occ = vec![[0u64; 8]; (N * N * N) as usize];
-            let at = |b: IVec3| ((b.x - lo.x) + N * ((b.y - lo.y) + N * (b.z - lo.z))) as usize;
+            // The chunk's bricks and a ring of one brick around them (from
+            // the stored neighbours): a 10³ box, x fastest.
+            const M: i32 = CB + 2;
+            let lo = base - 1;
+            let at = |b: IVec3| ((b.x - lo.x) + M * ((b.y - lo.y) + M * (b.z - lo.z))) as usize;
+            let mut occ = vec![[0u64; 8]; (M * M * M) as usize];
+            // Brick boxes of the stored neighbours (not c itself).
+            let mut others: Vec<(IVec3, IVec3)> = Vec::new();
             for dz in -1..=1 {
                 for dy in -1..=1 {
                     for dx in -1..=1 {
-                        let n = c + IVec3::new(dx, dy, dz);
+                        let d = IVec3::new(dx, dy, dz);
+                        let n = c + d;
                         if (0..3).any(|k| n[k] < 0 || n[k] >= self.cdims[k]) {
                             continue;
                         }
@@ -384,45 +387,57 @@ impl PagedOccupancy {
                         if self.coarse[ni] != 0 {
                             continue;
                         }
-                        let s = self.chunk_slot[ni];
-                        let raw = self.raw(s as usize - 1);
-                        for l in 0..CHUNK_BRICKS {
-                            if let Some(m) = raw.mask(l) {
-                                occ[at(n * CB + local_brick(l))] = *m;
+                        let (nlo, nhi) = (n * CB, n * CB + (CB - 1));
+                        if d != IVec3::ZERO {
+                            others.push((nlo, nhi));
+                        }
+                        let raw = self.raw(self.chunk_slot[ni] as usize - 1);
+                        // The part of n inside the box.
+                        let (blo, bhi) = (nlo.max(lo), nhi.min(lo + (M - 1)));
+                        for z in blo.z..=bhi.z {
+                            for y in blo.y..=bhi.y {
+                                for x in blo.x..=bhi.x {
+                                    let b = IVec3::new(x, y, z);
+                                    let l = b - nlo;
+                                    if let Some(m) = raw.mask((l.x + CB * (l.y + CB * l.z)) as usize) {
+                                        occ[at(b)] = *m;
+                                    }
+                                }
                             }
                         }
                     }
                 }
             }
-            let occ_at = |b: IVec3| -> BrickMask {
-                if (0..3).all(|k| b[k] >= lo[k] && b[k] < lo[k] + N) {
-                    occ[at(b)]
-                } else {
-                    [0; 8]
-                }
-            };
-            let dist = chessboard_distance([N; 3], |j| occ[j] != [0; 8]);
+            let occ_at = |b: IVec3| -> BrickMask { occ[at(b)] };
+            let dist = chessboard_distance([M; 3], |j| occ[j] != [0; 8]);
             let mut page = Box::new(Page {
                 slot: [0; CHUNK_BRICKS],
                 cloud: [0; CHUNK_BRICKS],
                 flags: vec![EMPTY_FLAGS, STOP_FLAGS],
             });
             let bdims = self.dims.map(|d| (d + 7) >> 3);
+            let (far_lo, far_hi) = (base - CB, base + (2 * CB - 1));
             for l in 0..CHUNK_BRICKS {
                 let b = base + local_brick(l);
-                // One more than the distance to the 24³ box's faces: what
-                // lies beyond is at least that far.
-                let face = (0..3)
-                    .map(|k| (b[k] - lo[k]).min(lo[k] + N - 1 - b[k]))
-                    .min()
-                    .unwrap_or(0);
-                page.cloud[l] = dist[at(b)].min((face + 1).min(255) as u8);
+                // Occupied bricks outside the box lie in a stored neighbour
+                // (at least as far as its box) or beyond the 3×3×3 chunks
+                // (at least one more than the distance to their faces).
+                let mut beyond = (b - far_lo).min(far_hi - b).min_element() + 1;
+                for &(nlo, nhi) in &others {
+                    let gap = (nlo - b).max(b - nhi).max(IVec3::ZERO).max_element();
+                    beyond = beyond.min(gap);
+                }
+                page.cloud[l] = dist[at(b)].min(beyond.min(255) as u8);
                 if (0..3).any(|k| b[k] >= bdims[k]) {
                     continue;
                 }
                 let m = occ_at(b);
                 if m == FULL_BRICK {
                     page.slot[l] = 1;
+                    continue;
+                }
+                // Flags only near occupied bricks (cloud 0 or 1 here).
+                if dist[at(b)] > 1 {
                     continue;
                 }
                 let prox = dilate(b, &occ_at);
