@@ -9,10 +9,11 @@ use pyo3::prelude::*;
 use voxkit::VoxkitError;
 use voxkit::camera::{Camera, SceneAxes, ViewPreset};
 use voxkit::grid::{BrickGrid, GridFrame, MemoryLimit, ScalarVolume, VolumeData, VolumeFrame};
+use voxkit::io::zarr::ChunkReader;
 use voxkit::render::{
-    GridTransform, NormalMode, OccupancyGrid, PixelWindow, RayKind, RenderImage, RenderOptions,
-    Sampling, TransferFunction, VolumeMode, VolumeOptions, VolumeScene, occupied_world_box,
-    render_grid_window,
+    GridTransform, NormalMode, OccupancyGrid, PagedOccupancy, PixelWindow, RayKind, RenderBricks,
+    RenderImage, RenderOptions, Sampling, TransferFunction, VolumeMode, VolumeOptions, VolumeScene,
+    occupied_world_box, render_grid_window,
 };
 
 use crate::grid::{Grid, limit_of};
@@ -173,7 +174,16 @@ pub fn render_grid<'py>(
         background,
         max_memory_mib,
     )?;
-    let window = match pixels {
+    let window = window_of(&v, pixels);
+    let img = run(py, || {
+        render_occupancy(&grid.grid, &grid.frame, SceneAxes::Y_UP, &v, window)
+    })?;
+    Ok(to_arrays(py, img, v.opts.background))
+}
+
+/// The pixels to render: `(x, y, width, height)` of the frame, or all.
+fn window_of(v: &View, pixels: Option<(u32, u32, u32, u32)>) -> PixelWindow {
+    match pixels {
         Some((x, y, width, height)) => PixelWindow {
             x,
             y,
@@ -181,9 +191,107 @@ pub fn render_grid<'py>(
             height,
         },
         None => PixelWindow::full(&v.opts),
-    };
+    }
+}
+
+/// A voxel store (`.zarr` that voxkit wrote) opened for rendering: its
+/// chunks are decoded as rays reach them and kept for later renders.
+#[pyclass(module = "voxkit._voxkit", name = "Store", frozen)]
+pub struct Store {
+    paged: PagedOccupancy,
+    xf: GridTransform,
+}
+
+#[pymethods]
+impl Store {
+    /// Grid extents `[nx, ny, nz]`.
+    #[getter]
+    fn dims(&self) -> [usize; 3] {
+        self.paged.dims()
+    }
+    /// Chunks (64³) the store holds.
+    #[getter]
+    fn stored_chunks(&self) -> usize {
+        self.paged.stored_chunks()
+    }
+    /// Chunks decoded by the renders so far.
+    #[getter]
+    fn chunks_decoded(&self) -> u64 {
+        self.paged.chunks_decoded()
+    }
+    /// Render pages built so far.
+    #[getter]
+    fn pages_built(&self) -> u64 {
+        self.paged.pages_built()
+    }
+    /// Bytes held: chunk tables, decoded chunks and pages.
+    #[getter]
+    fn memory_bytes(&self) -> u64 {
+        self.paged.heap_bytes()
+    }
+}
+
+/// Opens level `level` of the store at `path` for rendering, or `None`
+/// when another tool wrote it (load it with `load_grid` instead).
+#[pyfunction]
+#[pyo3(signature = (path, level, max_memory_mib))]
+pub fn open_store(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+    level: u32,
+    max_memory_mib: u64,
+) -> PyResult<Option<Store>> {
+    let limit = limit_of(max_memory_mib);
+    run(py, || {
+        let Some(reader) = ChunkReader::open(&path, level, limit)? else {
+            return Ok(None);
+        };
+        let xf = GridTransform::from_frame(reader.frame())?;
+        Ok(Some(Store {
+            paged: PagedOccupancy::new(reader, limit)?,
+            xf,
+        }))
+    })
+}
+
+/// Renders an opened store, as `render_grid` renders the same voxels.
+#[pyfunction]
+#[pyo3(signature = (store, size, eye, target, up, fov, ortho, view, ray, skip, normals, background, max_memory_mib, pixels = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn render_store<'py>(
+    py: Python<'py>,
+    store: &Store,
+    size: (u32, u32),
+    eye: Option<[f64; 3]>,
+    target: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    fov: f64,
+    ortho: bool,
+    view: &str,
+    ray: &str,
+    skip: bool,
+    normals: &str,
+    background: [f64; 3],
+    max_memory_mib: u64,
+    pixels: Option<(u32, u32, u32, u32)>,
+) -> PyResult<Image<'py>> {
+    let v = view_of(
+        size,
+        eye,
+        target,
+        up,
+        fov,
+        ortho,
+        view,
+        ray,
+        skip,
+        normals,
+        background,
+        max_memory_mib,
+    )?;
+    let window = window_of(&v, pixels);
     let img = run(py, || {
-        render_occupancy(&grid.grid, &grid.frame, SceneAxes::Y_UP, &v, window)
+        render_with(&store.paged, &store.xf, SceneAxes::Y_UP, &v, window)
     })?;
     Ok(to_arrays(py, img, v.opts.background))
 }
@@ -208,9 +316,21 @@ fn render_in(
     window: PixelWindow,
 ) -> voxkit::Result<RenderImage> {
     let occ = OccupancyGrid::new(grid, dims, v.opts.limit)?;
-    let (lo, hi) = occupied_world_box(&occ, xf);
+    render_with(&occ, xf, axes, v, window)
+}
+
+/// Frames the occupied voxels (unless the view places the camera) and
+/// renders the window.
+fn render_with<G: RenderBricks>(
+    occ: &G,
+    xf: &GridTransform,
+    axes: SceneAxes,
+    v: &View,
+    window: PixelWindow,
+) -> voxkit::Result<RenderImage> {
+    let (lo, hi) = occupied_world_box(occ, xf);
     let cam = v.camera(lo, hi, axes)?;
-    Ok(render_grid_window(&occ, xf, &cam, &v.opts, window)?.0)
+    Ok(render_grid_window(occ, xf, &cam, &v.opts, window)?.0)
 }
 
 /// Writes an `(H, W, 3)` or `(H, W, 4)` uint8 image as a PNG file

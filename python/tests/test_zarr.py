@@ -144,3 +144,36 @@ def test_a_torn_or_killed_tile_is_repaired_by_running_it_again(cli, tmp_path):
         run_tile(cli, tiled, "thin", t)
     a = zarr.open_group(str(whole), mode="r")["0"][:]
     assert np.array_equal(zarr.open_group(str(tiled), mode="r")["0"][:], a)
+
+
+@pytest.mark.parametrize("ray", ["adaptive", "6", "26", "aw"])
+def test_an_opened_store_renders_as_the_loaded_grid(tmp_path, ray):
+    store = tmp_path / "s.zarr"
+    voxkit.voxelize(*voxkit.load_mesh(BUNNY), resolution=200).save(store)
+    opened = voxkit.open_store(store)
+    assert opened.dims == voxkit.load_grid(store).dims
+    assert opened.chunks_decoded == 0 and opened.stored_chunks > 0
+    want = voxkit.render(voxkit.load_grid(store), size=(120, 90), ray=ray, normals="smooth")
+    got = voxkit.render(opened, size=(120, 90), ray=ray, normals="smooth")
+    assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+    # A window of the frame is the frame's pixels.
+    part = voxkit.render(opened, size=(120, 90), ray=ray, pixels=(30, 20, 50, 40))
+    assert np.array_equal(part[0], want[0][20:60, 30:80])
+    assert 0 < opened.chunks_decoded <= opened.stored_chunks
+    assert opened.pages_built > 0 and opened.memory_bytes > 0
+
+
+def test_open_store_leaves_foreign_stores_to_load_grid_and_caps_memory(tmp_path):
+    foreign = tmp_path / "f.zarr"
+    group = zarr.open_group(str(foreign), mode="w")
+    a = group.create_array("0", shape=(40, 50, 60), chunks=(16, 16, 16), dtype="uint8")
+    block = np.zeros((40, 50, 60), dtype=np.uint8)
+    block[10:30, 5:45, 20:50] = 1
+    a[:] = block
+    assert voxkit.open_store(foreign) is None
+    assert len(voxkit.load_grid(foreign)) == int(block.sum())
+    store = tmp_path / "s.zarr"
+    voxkit.voxelize(*voxkit.load_mesh(SPOT), resolution=600).save(store)
+    tight = voxkit.open_store(store, max_memory_mib=1)
+    with pytest.raises(MemoryError, match="chunks the rays reach"):
+        voxkit.render(tight, size=(64, 64))

@@ -36,7 +36,9 @@ from . import _voxkit
 
 __all__ = [
     "VoxelGrid",
+    "VoxelStore",
     "load_grid",
+    "open_store",
     "load_mesh",
     "line",
     "lines",
@@ -346,6 +348,59 @@ def load_grid(path: PathLike, *, max_memory_mib: int = 4096, level: int = 0) -> 
     return VoxelGrid(_voxkit.load_grid(os.fspath(path), int(max_memory_mib), int(level)))
 
 
+class VoxelStore:
+    """A ``.zarr`` store that voxkit wrote, opened for :func:`render`: its
+    chunks are decoded as rays reach them and kept for later renders, so a
+    store bigger than memory renders in the memory its visible part takes.
+    From :func:`open_store`."""
+
+    def __init__(self, store: Any) -> None:
+        self._s = store
+
+    @property
+    def dims(self) -> Tuple[int, int, int]:
+        """Grid extents ``(nx, ny, nz)``."""
+        return tuple(self._s.dims)
+
+    @property
+    def stored_chunks(self) -> int:
+        """64³ chunks the store holds."""
+        return self._s.stored_chunks
+
+    @property
+    def chunks_decoded(self) -> int:
+        """Chunks the renders so far have decoded."""
+        return self._s.chunks_decoded
+
+    @property
+    def pages_built(self) -> int:
+        """Render pages (one per 64³ chunk a ray reached) built so far."""
+        return self._s.pages_built
+
+    @property
+    def memory_bytes(self) -> int:
+        """Bytes held: chunk tables, decoded chunks and pages."""
+        return self._s.memory_bytes
+
+    def __repr__(self) -> str:
+        return (
+            f"VoxelStore(dims={self.dims}, stored_chunks={self.stored_chunks}, "
+            f"chunks_decoded={self.chunks_decoded}, pages_built={self.pages_built})"
+        )
+
+
+def open_store(path: PathLike, *, level: int = 0, max_memory_mib: int = 4096) -> Optional[VoxelStore]:
+    """Open level ``level`` of a ``.zarr`` store for :func:`render` without
+    loading it: renders read only the chunks their rays reach, and draw what
+    rendering :func:`load_grid`'s grid draws, pixel for pixel. ``None`` for a
+    store another tool wrote (other chunking or codecs: use
+    :func:`load_grid`). ``max_memory_mib`` caps everything the store will
+    hold, the chunks later renders decode included: a render that would
+    need more raises ``MemoryError`` and returns no image."""
+    s = _voxkit.open_store(os.fspath(path), int(level), int(max_memory_mib))
+    return None if s is None else VoxelStore(s)
+
+
 def write_png(path: PathLike, image: Any, *, overwrite: bool = False) -> None:
     """Write an ``(H, W, 3)`` or ``(H, W, 4)`` uint8 image (e.g. the ``rgb``
     of :func:`render`) as a PNG file, atomically; an existing file is
@@ -456,7 +511,9 @@ def render(
     data, adaptive rays (first hits identical to the 6-connected ray's),
     empty-space skipping, smooth normals.
 
-    ``grid_or_volume``: a :class:`VoxelGrid` (world frame, Y up); a 3D array
+    ``grid_or_volume``: a :class:`VoxelGrid` (world frame, Y up); a
+    :class:`VoxelStore` (:func:`open_store`: only the chunks the rays reach
+    are read); a 3D array
     indexed ``[x, y, z]`` (bool or 0/1 → voxels; other numbers → a scalar
     volume, Z up, shown by ``volume="mip"`` (default), ``"composite"`` or
     ``"iso"``), placed by ``spacing`` and ``origin`` (voxel 0's centre); or
@@ -471,7 +528,7 @@ def render(
     Returns ``(rgb (H, W, 3) uint8, depth (H, W) float32)``; depth is the
     world distance along the ray to the hit, ``inf`` where nothing was hit.
 
-    ``pixels=(x, y, w, h)`` (a :class:`VoxelGrid` only) renders just that
+    ``pixels=(x, y, w, h)`` (voxels only) renders just that
     rectangle of the ``size`` frame (row 0 at the top), pixel for pixel the
     frame's: how :func:`voxkit.distributed.render_tiled` splits a frame
     across workers. The arrays are then ``(h, w, …)``.
@@ -493,12 +550,14 @@ def render(
         _vec3(background, "background"),
         int(max_memory_mib),
     )
-    if isinstance(grid_or_volume, VoxelGrid):
+    if isinstance(grid_or_volume, (VoxelGrid, VoxelStore)):
         if volume is not None or iso is not None or window is not None or tf is not None:
-            raise ValueError("volume, iso, window and tf apply to scalar volumes, not to a VoxelGrid")
+            raise ValueError("volume, iso, window and tf apply to scalar volumes, not to voxels")
         px = None if pixels is None else tuple(int(c) for c in pixels)
         if px is not None and len(px) != 4:
             raise ValueError(f"pixels must be (x, y, width, height), got {pixels!r}")
+        if isinstance(grid_or_volume, VoxelStore):
+            return _voxkit.render_store(grid_or_volume._s, *common, px)
         return _voxkit.render_grid(grid_or_volume._g, *common, px)
     if pixels is not None:
         raise ValueError("pixels applies to a VoxelGrid (render_tiled), not to a scalar volume")

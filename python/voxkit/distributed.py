@@ -373,13 +373,19 @@ class _RenderTask:
         self.options, self.token = options, token
 
     def __call__(self, rect):
-        from . import load_grid, render
+        from . import load_grid, open_store, render
 
         t = time.perf_counter()
         cached = _RENDER_GRID.get("token") == self.token
         if not cached:
             _RENDER_GRID.clear()
-            _RENDER_GRID["grid"] = load_grid(self.store, level=self.level, max_memory_mib=self.max_memory_mib)
+            # A store voxkit wrote is opened, not loaded: each worker decodes
+            # only the chunks its rectangles' rays reach (and keeps them for
+            # its next rectangles); another tool's store is loaded whole.
+            grid = open_store(self.store, level=self.level, max_memory_mib=self.max_memory_mib)
+            if grid is None:
+                grid = load_grid(self.store, level=self.level, max_memory_mib=self.max_memory_mib)
+            _RENDER_GRID["grid"] = grid
             _RENDER_GRID["token"] = self.token
         load_s = time.perf_counter() - t
         rgb, depth = render(_RENDER_GRID["grid"], pixels=rect, max_memory_mib=self.max_memory_mib, **self.options)
@@ -411,8 +417,9 @@ def render_tiled(
     would, split into ``tile`` × ``tile`` rectangles of pixels mapped over
     ``client`` (or run here without one), then stitched.
 
-    Every worker reads the store (shared filesystem) once per call and
-    renders its rectangles with the frame's camera: each ray depends on its
+    Every worker opens the store (shared filesystem) once per call, reads
+    only the chunks its rectangles' rays reach (:func:`voxkit.open_store`),
+    and renders its rectangles with the frame's camera: each ray depends on its
     pixel alone, so the stitched picture equals the single-process render
     pixel for pixel. ``options`` are :func:`voxkit.render`'s (``eye``,
     ``view``, ``ray``, ``fov``, …). ``out``: also write the picture as PNG.

@@ -399,7 +399,9 @@ impl PagedOccupancy {
                                 for x in blo.x..=bhi.x {
                                     let b = IVec3::new(x, y, z);
                                     let l = b - nlo;
-                                    if let Some(m) = raw.mask((l.x + CB * (l.y + CB * l.z)) as usize) {
+                                    if let Some(m) =
+                                        raw.mask((l.x + CB * (l.y + CB * l.z)) as usize)
+                                    {
                                         occ[at(b)] = *m;
                                     }
                                 }
