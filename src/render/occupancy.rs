@@ -212,7 +212,8 @@ impl OccupancyGrid {
         grid.check_inside(dims)?;
         let bdims = dims.map(|d| d.div_ceil(8) as i32);
         let cells: u128 = bdims.iter().map(|&b| b as u128).product();
-        limit.check("render brick tables", cells, 5)?;
+        // Slot and cloud per brick, and the cloud's padded working copy.
+        limit.check("render brick tables", cells, 6)?;
         let n = cells as usize;
         let bindex = |b: IVec3| (b.x + bdims[0] * (b.y + bdims[1] * b.z)) as usize;
         let inside = |b: IVec3| (0..3).all(|k| b[k] >= 0 && b[k] < bdims[k]);
@@ -499,47 +500,68 @@ pub(crate) fn dilate(t: IVec3, occ_at: &impl Fn(IVec3) -> BrickMask) -> BrickMas
 /// chessboard path is monotone, so the forward pass sees its first half and
 /// the backward pass the rest; Rosenfeld & Pfaltz 1966).
 pub(crate) fn chessboard_distance(dims: [i32; 3], seed: impl Fn(usize) -> bool) -> Vec<u8> {
-    let [nx, ny, nz] = dims;
-    let n = (nx * ny * nz) as usize;
-    let mut d: Vec<u8> = (0..n).map(|i| if seed(i) { 0 } else { 255 }).collect();
-    let idx = |x: i32, y: i32, z: i32| (x + nx * (y + ny * z)) as usize;
-    // The 13 neighbours that precede a cell in raster order (z, y, x).
+    let [nx, ny, nz] = dims.map(|d| d as usize);
+    // Computed in a copy padded by one cell of 255 on every side, so no
+    // neighbour needs a bounds test; the passes read fixed offsets.
+    let (px, py) = (nx + 2, ny + 2);
+    let mut p = vec![255u8; px * py * (nz + 2)];
+    let at = |x: usize, y: usize, z: usize| x + 1 + px * (y + 1 + py * (z + 1));
+    let mut i = 0;
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                if seed(i) {
+                    p[at(x, y, z)] = 0;
+                }
+                i += 1;
+            }
+        }
+    }
+    // The 13 neighbours that precede a cell in raster order (z, y, x), as
+    // offsets in the padded copy.
     let mut before = Vec::new();
-    for dz in -1..=1 {
-        for dy in -1..=1 {
-            for dx in -1..=1 {
+    for dz in -1..=1isize {
+        for dy in -1..=1isize {
+            for dx in -1..=1isize {
                 if (dz, dy, dx) < (0, 0, 0) {
-                    before.push(IVec3::new(dx, dy, dz));
+                    before.push(dx + px as isize * (dy + py as isize * dz));
                 }
             }
         }
     }
-    let pass =
-        |d: &mut Vec<u8>, offsets: &[IVec3], order: &mut dyn Iterator<Item = (i32, i32, i32)>| {
-            for (x, y, z) in order {
-                let i = idx(x, y, z);
-                let mut best = d[i];
-                if best == 0 {
-                    continue;
-                }
-                for o in offsets {
-                    let (qx, qy, qz) = (x + o.x, y + o.y, z + o.z);
-                    if qx >= 0 && qy >= 0 && qz >= 0 && qx < nx && qy < ny && qz < nz {
-                        best = best.min(d[idx(qx, qy, qz)].saturating_add(1));
-                    }
-                }
-                d[i] = best;
+    let relax = |p: &mut Vec<u8>, c: usize, offsets: &[isize]| {
+        let mut best = p[c];
+        if best != 0 {
+            for &o in offsets {
+                best = best.min(p[c.wrapping_add_signed(o)].saturating_add(1));
             }
-        };
-    let forward = (0..nz).flat_map(|z| (0..ny).flat_map(move |y| (0..nx).map(move |x| (x, y, z))));
-    pass(&mut d, &before, &mut forward.into_iter());
-    let after: Vec<IVec3> = before.iter().map(|o| -*o).collect();
-    let backward = (0..nz).rev().flat_map(|z| {
-        (0..ny)
-            .rev()
-            .flat_map(move |y| (0..nx).rev().map(move |x| (x, y, z)))
-    });
-    pass(&mut d, &after, &mut backward.into_iter());
+            p[c] = best;
+        }
+    };
+    for z in 0..nz {
+        for y in 0..ny {
+            let row = at(0, y, z);
+            for c in row..row + nx {
+                relax(&mut p, c, &before);
+            }
+        }
+    }
+    let after: Vec<isize> = before.iter().map(|o| -o).collect();
+    for z in (0..nz).rev() {
+        for y in (0..ny).rev() {
+            let row = at(0, y, z);
+            for c in (row..row + nx).rev() {
+                relax(&mut p, c, &after);
+            }
+        }
+    }
+    let mut d = Vec::with_capacity(nx * ny * nz);
+    for z in 0..nz {
+        for y in 0..ny {
+            let row = at(0, y, z);
+            d.extend_from_slice(&p[row..row + nx]);
+        }
+    }
     d
 }
 

@@ -16,14 +16,16 @@
 //! The chunks within one chunk of a stored one (the stored ones and their
 //! halo, where proximity flags and short cloud values spill) get pages.
 //! A page is built when a ray first asks for one of its chunk's bricks,
-//! from the decoded occupancy of the 3×3×3 chunks around it
-//! (decoded once each and kept): its bricks' occupancy and proximity masks
-//! (the same dilation [`OccupancyGrid`](super::OccupancyGrid) computes, so
-//! the flags are identical) and a cloud value per brick: the exact
-//! Chebyshev distance to the occupied bricks of those 27 chunks, capped by
-//! one more than the distance to their box's faces. Every cloud value is a
-//! lower bound on the in-memory grid's, and a lower bound only skips less:
-//! every pixel equals the in-memory render's (tests compare).
+//! from a 10³-brick box: the chunk's bricks and a ring of one brick taken
+//! from its stored neighbours (decoded once each and kept). Its bricks'
+//! occupancy and proximity masks are the dilation
+//! [`OccupancyGrid`](super::OccupancyGrid) computes, so the flags are
+//! identical. Its cloud value per brick is the exact Chebyshev distance to
+//! the occupied bricks of the box, capped by what lies beyond it: the
+//! distance to each stored neighbour's box, and one more than the distance
+//! to the faces of the 3×3×3 chunks. Every cloud value is a lower bound on
+//! the in-memory grid's, and a lower bound only skips less: every pixel
+//! equals the in-memory render's (tests compare).
 //!
 //! Pages and decoded chunks are built once (`OnceLock`) by whichever thread
 //! reaches them first; the others wait for that one. Their bytes are
@@ -411,7 +413,7 @@ impl PagedOccupancy {
                 }
             }
             let occ_at = |b: IVec3| -> BrickMask { occ[at(b)] };
-            let dist = chessboard_distance([M; 3], |j| occ[j] != [0; 8]);
+            let dist = chessboard_distance([M; 3], |j| !mask_empty(&occ[j]));
             let mut page = Box::new(Page {
                 slot: [0; CHUNK_BRICKS],
                 cloud: [0; CHUNK_BRICKS],
@@ -443,7 +445,7 @@ impl PagedOccupancy {
                     continue;
                 }
                 let prox = dilate(b, &occ_at);
-                if prox != [0; 8] || m != [0; 8] {
+                if !mask_empty(&prox) || !mask_empty(&m) {
                     page.flags.push(BrickFlags { occ: m, prox });
                     page.slot[l] = (page.flags.len() - 1) as u16;
                 }
@@ -503,6 +505,13 @@ impl PagedOccupancy {
         let f = self.failure.lock().unwrap_or_else(|p| p.into_inner());
         f.as_ref().map_or(Ok(()), |e| Err(e.clone()))
     }
+}
+
+/// Whether a mask has no voxel (an OR of its words: array equality
+/// compiles to a `memcmp` call).
+#[inline(always)]
+fn mask_empty(m: &BrickMask) -> bool {
+    m.iter().fold(0, |a, &w| a | w) == 0
 }
 
 /// Inclusive bounds of the voxels of a non-empty brick mask, in the
