@@ -140,7 +140,6 @@ fn _voxkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(lines::line, m)?)?;
     m.add_function(wrap_pyfunction!(lines::lines, m)?)?;
     m.add_function(wrap_pyfunction!(render::render_grid, m)?)?;
-    m.add_function(wrap_pyfunction!(render::render_store, m)?)?;
     m.add_function(wrap_pyfunction!(render::open_store, m)?)?;
     m.add_function(wrap_pyfunction!(render::render_volume, m)?)?;
     m.add_function(wrap_pyfunction!(render::read_volume, m)?)?;

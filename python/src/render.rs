@@ -138,14 +138,14 @@ fn to_arrays<'py>(py: Python<'py>, img: RenderImage, background: [f32; 3]) -> Im
     )
 }
 
-/// Renders a voxel grid (its world frame; Y up, as `voxkit render` takes
-/// binvox/npy/NRRD grids).
+/// Renders a voxel grid, or a store opened by `open_store` (its world
+/// frame; Y up, as `voxkit render` takes binvox/npy/NRRD grids and stores).
 #[pyfunction]
 #[pyo3(signature = (grid, size, eye, target, up, fov, ortho, view, ray, skip, normals, background, max_memory_mib, pixels = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn render_grid<'py>(
     py: Python<'py>,
-    grid: &Grid,
+    grid: &Bound<'py, PyAny>,
     size: (u32, u32),
     eye: Option<[f64; 3]>,
     target: Option<[f64; 3]>,
@@ -175,9 +175,17 @@ pub fn render_grid<'py>(
         max_memory_mib,
     )?;
     let window = window_of(&v, pixels);
-    let img = run(py, || {
-        render_occupancy(&grid.grid, &grid.frame, SceneAxes::Y_UP, &v, window)
-    })?;
+    let img = if let Ok(store) = grid.cast::<Store>() {
+        let store = store.get();
+        run(py, || {
+            render_with(&store.paged, &store.xf, SceneAxes::Y_UP, &v, window)
+        })?
+    } else {
+        let grid = grid.cast::<Grid>()?.get();
+        run(py, || {
+            render_occupancy(&grid.grid, &grid.frame, SceneAxes::Y_UP, &v, window)
+        })?
+    };
     Ok(to_arrays(py, img, v.opts.background))
 }
 
@@ -252,48 +260,6 @@ pub fn open_store(
             xf,
         }))
     })
-}
-
-/// Renders an opened store, as `render_grid` renders the same voxels.
-#[pyfunction]
-#[pyo3(signature = (store, size, eye, target, up, fov, ortho, view, ray, skip, normals, background, max_memory_mib, pixels = None))]
-#[allow(clippy::too_many_arguments)]
-pub fn render_store<'py>(
-    py: Python<'py>,
-    store: &Store,
-    size: (u32, u32),
-    eye: Option<[f64; 3]>,
-    target: Option<[f64; 3]>,
-    up: Option<[f64; 3]>,
-    fov: f64,
-    ortho: bool,
-    view: &str,
-    ray: &str,
-    skip: bool,
-    normals: &str,
-    background: [f64; 3],
-    max_memory_mib: u64,
-    pixels: Option<(u32, u32, u32, u32)>,
-) -> PyResult<Image<'py>> {
-    let v = view_of(
-        size,
-        eye,
-        target,
-        up,
-        fov,
-        ortho,
-        view,
-        ray,
-        skip,
-        normals,
-        background,
-        max_memory_mib,
-    )?;
-    let window = window_of(&v, pixels);
-    let img = run(py, || {
-        render_with(&store.paged, &store.xf, SceneAxes::Y_UP, &v, window)
-    })?;
-    Ok(to_arrays(py, img, v.opts.background))
 }
 
 fn render_occupancy(

@@ -556,9 +556,8 @@ def render(
         px = None if pixels is None else tuple(int(c) for c in pixels)
         if px is not None and len(px) != 4:
             raise ValueError(f"pixels must be (x, y, width, height), got {pixels!r}")
-        if isinstance(grid_or_volume, VoxelStore):
-            return _voxkit.render_store(grid_or_volume._s, *common, px)
-        return _voxkit.render_grid(grid_or_volume._g, *common, px)
+        native = grid_or_volume._s if isinstance(grid_or_volume, VoxelStore) else grid_or_volume._g
+        return _voxkit.render_grid(native, *common, px)
     if pixels is not None:
         raise ValueError("pixels applies to a VoxelGrid (render_tiled), not to a scalar volume")
     arr = grid_or_volume
