@@ -2,7 +2,8 @@
 //! Latin-1 bytes, broken or missing material libraries, partial vertex
 //! colours), binvox headers with comments, NRRD with bzip2 (attached and
 //! detached), 2-D images and 4-D volumes with a size-1 axis; one-line
-//! refusals for bad PLY / STL / OFF / OBJ; the CLI's warnings, a closed
+//! refusals for bad PLY / STL / OFF / OBJ; ascii STL read as exact f64 and
+//! as exporters write it; the CLI's warnings, a closed
 //! stdout and `demo --help`. Each OBJ case is generated from one base mesh
 //! and must give the base mesh's triangles; the parser is also checked
 //! against tobj on random valid files.
@@ -623,6 +624,61 @@ fn stl_off_obj_refusals_are_one_human_line() {
     for (name, bytes) in stl_cases {
         one_line(stl::parse(bytes, name).unwrap_err(), name, &[]);
     }
+    // Ascii refusals name the line and what is wrong there.
+    let stl_ascii: &[(&str, &str, &[&str])] = &[
+        (
+            "num.stl",
+            "solid\nfacet\nvertex 0 0 0\nvertex 1 0 O\n",
+            &["line 4", "`O` is not a number"],
+        ),
+        (
+            "two.stl",
+            "solid\nfacet\nvertex 0 0\n",
+            &["line 3", "2 coordinates"],
+        ),
+        (
+            "inf.stl",
+            "solid\nfacet\nvertex 0 inf 0\n",
+            &["line 3", "non-finite"],
+        ),
+        (
+            "open.stl",
+            "solid\nfacet\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n",
+            &["ends inside the facet begun on line 2"],
+        ),
+        (
+            "short.stl",
+            "solid\nfacet\nvertex 0 0 0\nvertex 1 0 0\nendfacet\nendsolid\n",
+            &["line 5", "facet begun on line 2 has 2 corners"],
+        ),
+        (
+            "stray.stl",
+            "solid\nvertex 0 0 0\nendsolid\n",
+            &["line 2", "`vertex` outside a facet"],
+        ),
+        (
+            "nested.stl",
+            "solid a\nfacet\nsolid b\n",
+            &["line 3", "`solid` before the facet begun on line 2 ended"],
+        ),
+        (
+            "word.stl",
+            "solid\nfacet\n  colour 1 0 0\n",
+            &["line 3", "`colour` is not an ascii STL keyword"],
+        ),
+        (
+            "after.stl",
+            "solid\nendsolid\nfacet\n",
+            &["line 3", "outside a `solid` block"],
+        ),
+    ];
+    for (name, text, needles) in stl_ascii {
+        one_line(
+            stl::parse(text.as_bytes(), name).unwrap_err(),
+            name,
+            needles,
+        );
+    }
     let off_cases: &[(&str, &[u8])] = &[
         ("head.off", b"OFX\n3 1 0\n"),
         ("count.off", b"OFF\n3 x 0\n"),
@@ -644,6 +700,145 @@ fn stl_off_obj_refusals_are_one_human_line() {
     for (name, bytes, needle) in obj_cases {
         one_line(obj::parse(bytes, name).unwrap_err(), name, &[needle]);
     }
+}
+
+// ---------------------------------------------------------------------------
+// STL as other tools write it
+// ---------------------------------------------------------------------------
+
+/// An ascii STL facet block with these corners, in the given keyword case.
+fn stl_facet(corners: &[[f64; 3]], upper: bool) -> String {
+    let mut s = String::from("  facet normal 0 0 0\n    outer loop\n");
+    for c in corners {
+        s += &format!("      vertex {:e} {:e} {:e}\n", c[0], c[1], c[2]);
+    }
+    s += "    endloop\n  endfacet\n";
+    if upper { s.to_uppercase() } else { s }
+}
+
+/// Ascii STL is read as f64, correctly rounded: corners written with
+/// enough digits come back bit for bit (a reader rounding to f32, as
+/// `stl_io` did, moves all but a few of them).
+#[test]
+fn stl_ascii_corners_read_as_exact_f64() {
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        // Magnitudes from 1e-6 to 1e6, both signs, no two equal.
+        let m = (state >> 11) as f64 / (1u64 << 53) as f64;
+        let e = ((state & 0xff) as f64 / 255.0) * 12.0 - 6.0;
+        let sign = if state & 0x100 == 0 { 1.0 } else { -1.0 };
+        sign * (1.0 + m) * 10f64.powf(e)
+    };
+    let want: Vec<[[f64; 3]; 3]> = (0..500)
+        .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| next())))
+        .collect();
+    let mut text = String::from("solid exact\n");
+    for t in &want {
+        text += &stl_facet(t, false);
+    }
+    text += "endsolid exact\n";
+    let m = stl::parse(text.as_bytes(), "exact.stl").unwrap();
+    let got: Vec<[[f64; 3]; 3]> = corners(&m)
+        .iter()
+        .map(|t| t.map(|c| c.to_array()))
+        .collect();
+    assert_eq!(got, want);
+    // Not vacuous: f32 would have moved nearly every coordinate.
+    let moved = want
+        .iter()
+        .flatten()
+        .flatten()
+        .filter(|&&c| f64::from(c as f32) != c)
+        .count();
+    assert!(moved > 4000, "{moved}");
+}
+
+/// What exporters write that the grammar allows or that readers accept:
+/// upper-case keywords, CRLF, tabs, Latin-1 names, no `outer loop`, several
+/// solids, polygons (fanned, with a warning), a missing `endsolid` (a
+/// warning); and a binary file whose header says `solid` and whose count is
+/// wrong stays binary.
+#[test]
+fn stl_ascii_as_exporters_write_it() {
+    let a = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let b = [[1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+    let want = |m: &Mesh| {
+        let got: Vec<[[f64; 3]; 3]> = corners(m).iter().map(|t| t.map(|c| c.to_array())).collect();
+        assert_eq!(got, vec![a, b]);
+        assert_eq!(m.positions.len(), 4);
+    };
+    let plain = format!(
+        "solid p\n{}{}endsolid p\n",
+        stl_facet(&a, false),
+        stl_facet(&b, false)
+    );
+    let m = stl::parse(plain.as_bytes(), "plain.stl").unwrap();
+    want(&m);
+    assert!(m.summary.warnings.is_empty());
+
+    let upper = format!(
+        "SOLID P\r\n{}{}ENDSOLID P\r\n",
+        stl_facet(&a, true),
+        stl_facet(&b, true)
+    )
+    .replace('\n', "\r\n")
+    .replace("\r\r", "\r")
+    .replace("      ", "\t");
+    want(&stl::parse(upper.as_bytes(), "upper.stl").unwrap());
+
+    let mut latin1 = b"solid Mod\xe8le \xa9 caf\xe9\n".to_vec();
+    latin1.extend_from_slice(plain.split_once('\n').unwrap().1.as_bytes());
+    want(&stl::parse(&latin1, "latin1.stl").unwrap());
+
+    let bare = plain
+        .replace("    outer loop\n", "")
+        .replace("    endloop\n", "");
+    want(&stl::parse(bare.as_bytes(), "bare.stl").unwrap());
+
+    let two = format!(
+        "solid one\n{}endsolid one\n\nsolid two\n{}endsolid two\n",
+        stl_facet(&a, false),
+        stl_facet(&b, false)
+    );
+    want(&stl::parse(two.as_bytes(), "two.stl").unwrap());
+
+    // A quad facet is fanned from its first corner: two triangles.
+    let q = [a[0], a[1], b[1], a[2]];
+    let quad = format!("solid q\n{}endsolid q\n", stl_facet(&q, false));
+    let m = stl::parse(quad.as_bytes(), "quad.stl").unwrap();
+    let got: Vec<[[f64; 3]; 3]> = corners(&m)
+        .iter()
+        .map(|t| t.map(|c| c.to_array()))
+        .collect();
+    assert_eq!(got, vec![[q[0], q[1], q[2]], [q[0], q[2], q[3]]]);
+    assert_eq!(m.summary.warnings.len(), 1, "{:?}", m.summary.warnings);
+    assert!(m.summary.warnings[0].contains("fanned"));
+
+    let cut = plain.replace("endsolid p\n", "");
+    let m = stl::parse(cut.as_bytes(), "cut.stl").unwrap();
+    want(&m);
+    assert_eq!(m.summary.warnings.len(), 1, "{:?}", m.summary.warnings);
+    assert!(m.summary.warnings[0].contains("no `endsolid`"));
+
+    // Binary with a `solid …` header and 7 bytes of padding after the
+    // records: not text (the records hold NUL bytes), so read as binary.
+    let mut bin = b"solid exported by a CAD tool".to_vec();
+    bin.resize(80, b' ');
+    bin.extend_from_slice(&2u32.to_le_bytes());
+    for t in [a, b] {
+        bin.extend_from_slice(&[0u8; 12]);
+        for c in t {
+            for v in c {
+                bin.extend_from_slice(&(v as f32).to_le_bytes());
+            }
+        }
+        bin.extend_from_slice(&[0u8; 2]);
+    }
+    bin.extend_from_slice(b"padding");
+    want(&stl::parse(&bin, "bin.stl").unwrap());
 }
 
 // ---------------------------------------------------------------------------
