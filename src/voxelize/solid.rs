@@ -10,8 +10,8 @@
 //!   near the holes go down to single voxels; there the caps' far field is
 //!   shared by the brick (a local expansion with a rigorous error bound,
 //!   refined for its sub-cubes), the near field summed exactly in vector
-//!   lanes, and only centres whose bound straddles ½ are evaluated one by
-//!   one. With [`InsideTest::Parity`]:
+//!   lanes, and the 2³ cubes with centres whose bound straddles ½ get a
+//!   finer far field of their own, in lanes too. With [`InsideTest::Parity`]:
 //!   exact crossing parity along x, for watertight meshes. Output in tiles.
 //!
 //! The references it is tested against:
@@ -362,7 +362,8 @@ pub struct SolidStats {
     /// (`w` as estimated for the decision, within its error bound).
     pub ambiguous: u64,
     /// Centres of refined bricks that the brick's far field and exact near
-    /// field left undecided (sent to the per-point path).
+    /// field left undecided: their 2³ cube's own finer far field decides
+    /// them, or the per-point path when they may lie in a cap's plane.
     pub straddling: u64,
     /// Wall time (µs) of the region octree (the caps' bounds over boxes).
     pub regions_us: u64,
@@ -372,8 +373,8 @@ pub struct SolidStats {
     /// Time (µs, summed over threads) in the exact near field of the
     /// refined bricks' centres.
     pub near_field_us: u64,
-    /// Time (µs, summed over threads) deciding the straddling centres one
-    /// by one.
+    /// Time (µs, summed over threads) deciding the straddling centres
+    /// (cube by cube, then one by one).
     pub refine_us: u64,
 }
 
@@ -381,11 +382,14 @@ pub struct SolidStats {
 /// the worker threads.
 pub type BrickProgress<'a> = dyn Fn(u64, u64) + Sync + 'a;
 
-/// Opening ratio of the refined bricks' far field (node accepted when
-/// farther than `(β + 1)(r + ρ)` from the box centre): small, so that the
-/// near field summed centre by centre stays short; its looser bound sends
-/// only the few centres with `w` near ½ on to the per-point path.
-const BRICK_BETA: f64 = 1.5;
+/// Opening ratios of the refined bricks' far field (node accepted when
+/// farther than `(β + 1)(r + ρ)` from the box centre), tried in turn until
+/// the far field's error bound over the brick is below [`AMBIGUITY_BAND`]:
+/// small first, so that the near field summed in lanes stays short where
+/// caps are small; larger where they are large, so that few centres are
+/// left straddling ½ (Spot at `-r 128` with 20% of its triangles deleted:
+/// 229k straddling centres at 1.5 alone, 6k with the ladder).
+const BRICK_BETAS: [f64; 4] = [1.5, 2.0, 2.5, 3.0];
 
 /// Voxels whose winding number lies within this of ½ are counted as
 /// ambiguous ([`SolidStats::ambiguous`]): their verdict hangs on how the
@@ -799,8 +803,11 @@ impl BrickRefiner for Classifier<'_> {
     /// brick's octree as the target tree), and the near field of each 2³
     /// cube summed exactly for its 8 centres in vector lanes. A centre whose
     /// `m + w_{S'}` is more than the accumulated error bound from ½ is
-    /// decided there; the rest (the bound straddles ½, or the centre may lie
-    /// in a cap's plane) go on to [`Classifier::cap_point`].
+    /// decided there. A 2³ cube with centres whose bound straddles ½ gets
+    /// its own far field at the point path's larger opening ratios, summed
+    /// in lanes again ([`Classifier::straddling_cube`]); only centres that
+    /// may lie in a cap's plane, and with few caps the last ties, go one by
+    /// one to [`Classifier::cap_point`].
     fn refine(&self, key: Voxel, m: &[Option<i32>; 512]) -> (BrickMask, u64) {
         let (mut mask, mut ambiguous) = ([0u64; 8], 0);
         let lo = key * 8;
@@ -808,7 +815,20 @@ impl BrickRefiner for Classifier<'_> {
             return (mask, ambiguous);
         };
         let t = std::time::Instant::now();
-        let far = self.caps.far_field(blo, bhi, BRICK_BETA);
+        // The opening ratio grows until the far field's bound over the brick
+        // is below the ambiguity band: where caps are large (holes
+        // everywhere) a looser bound would leave most centres straddling ½,
+        // and a longer near list in lanes costs less than deciding them
+        // cube by cube.
+        let mut bb = BRICK_BETAS[0];
+        let mut far = self.caps.far_field(blo, bhi, bb);
+        for &beta in &BRICK_BETAS[1..] {
+            if far.local.error <= AMBIGUITY_BAND {
+                break;
+            }
+            bb = beta;
+            far = self.caps.far_field(blo, bhi, bb);
+        }
         let (mut near1, mut near2) = (Vec::new(), Vec::new());
         let mut cubes = Vec::with_capacity(64);
         for c in 0..8 {
@@ -819,7 +839,7 @@ impl BrickRefiner for Classifier<'_> {
             let mut l1 = far.local.recentred((b1lo + b1hi) * 0.5);
             near1.clear();
             self.caps
-                .split(&far.near, b1lo, b1hi, BRICK_BETA, &mut l1, &mut near1);
+                .split(&far.near, b1lo, b1hi, bb, &mut l1, &mut near1);
             for g in 0..8 {
                 let lo2 = lo1 + Voxel::new(g & 1, (g >> 1) & 1, g >> 2) * 2;
                 let Some((b2lo, b2hi)) = centre_box(lo2, 2, self.dims) else {
@@ -827,13 +847,12 @@ impl BrickRefiner for Classifier<'_> {
                 };
                 let mut l2 = l1.recentred((b2lo + b2hi) * 0.5);
                 let start = near2.len();
-                self.caps
-                    .split(&near1, b2lo, b2hi, BRICK_BETA, &mut l2, &mut near2);
+                self.caps.split(&near1, b2lo, b2hi, bb, &mut l2, &mut near2);
                 cubes.push((lo2, l2, start..near2.len()));
             }
         }
         let t_far = t.elapsed();
-        let mut slow = Vec::new();
+        let (mut slow, mut pending) = (Vec::new(), Vec::new());
         for (lo2, local, range) in &cubes {
             self.near_cube(
                 lo,
@@ -844,9 +863,18 @@ impl BrickRefiner for Classifier<'_> {
                 &mut mask,
                 &mut ambiguous,
                 &mut slow,
+                &mut pending,
             );
         }
         let t_near = t.elapsed();
+        let straddling: usize = pending
+            .iter()
+            .map(|c| c.open.iter().filter(|&&o| o).count())
+            .sum();
+        let on_planes = slow.len();
+        for cube in &pending {
+            self.straddling_cube(lo, bb, cube, m, &mut mask, &mut ambiguous, &mut slow);
+        }
         for &(i, mv) in &slow {
             let q = (lo + slot_voxel(i)).as_dvec3();
             let w = match self.cap_point(q) {
@@ -863,13 +891,35 @@ impl BrickRefiner for Classifier<'_> {
         self.slow_ns
             .fetch_add((t_all - t_near).as_nanos() as u64, Ordering::Relaxed);
         self.slow_points
-            .fetch_add(slow.len() as u64, Ordering::Relaxed);
+            .fetch_add((straddling + on_planes) as u64, Ordering::Relaxed);
         let done = self.bricks_done.fetch_add(1, Ordering::Relaxed) + 1;
         if let Some(p) = self.progress {
             p(done, self.bricks_total.load(Ordering::Relaxed));
         }
         (mask, ambiguous)
     }
+}
+
+/// The centres of a 2³ cube that [`Classifier::refine`] could not decide
+/// from the brick's far field.
+#[derive(Clone, Copy)]
+struct Straddling {
+    /// The cube's lowest voxel.
+    lo2: Voxel,
+    /// Lanes still undecided.
+    open: [bool; LANES],
+    /// Their estimates so far.
+    last: [f64; LANES],
+}
+
+/// The brick slots and centres of the 2³ cube at `lo2` in lane order.
+fn cube_lanes(brick_lo: Voxel, lo2: Voxel) -> ([usize; LANES], [DVec3; LANES]) {
+    let slots: [usize; LANES] = std::array::from_fn(|k| {
+        let l = lo2 - brick_lo + Voxel::new(k as i32 & 1, (k as i32 >> 1) & 1, k as i32 >> 2);
+        (l.x + 8 * l.y + 64 * l.z) as usize
+    });
+    let q = slots.map(|i| (brick_lo + slot_voxel(i)).as_dvec3());
+    (slots, q)
 }
 
 /// The offset in its brick of slot `i` (`x + 8y + 64z`).
@@ -879,8 +929,9 @@ fn slot_voxel(i: usize) -> Voxel {
 
 impl Classifier<'_> {
     /// Decides the 2³ cube at `lo2` of the brick at `brick_lo` from its far
-    /// field `local` and its near leaves: the centres the bound leaves
-    /// undecided are pushed onto `slow` (slot, line value).
+    /// field `local` and its near leaves: centres that may lie in a cap's
+    /// plane are pushed onto `slow` (slot, line value), and a cube with
+    /// centres the bound leaves undecided onto `pending`.
     #[allow(clippy::too_many_arguments)]
     fn near_cube(
         &self,
@@ -892,11 +943,9 @@ impl Classifier<'_> {
         mask: &mut BrickMask,
         ambiguous: &mut u64,
         slow: &mut Vec<(usize, i32)>,
+        pending: &mut Vec<Straddling>,
     ) {
-        let slots: [usize; LANES] = std::array::from_fn(|k| {
-            let l = lo2 - brick_lo + Voxel::new(k as i32 & 1, (k as i32 >> 1) & 1, k as i32 >> 2);
-            (l.x + 8 * l.y + 64 * l.z) as usize
-        });
+        let (slots, q) = cube_lanes(brick_lo, lo2);
         // Centres the caller adds anyway (its surface) need no winding number.
         let mut todo = [false; LANES];
         for k in 0..LANES {
@@ -912,9 +961,110 @@ impl Classifier<'_> {
         if !todo.contains(&true) {
             return;
         }
-        let q: [DVec3; LANES] =
-            std::array::from_fn(|k| (brick_lo + slot_voxel(slots[k])).as_dvec3());
         let (sum, flat, count) = self.caps.near_lanes(near, &q);
+        let mut last = [0.0; LANES];
+        let mut open = [false; LANES];
+        self.decide_lanes(
+            brick_lo,
+            &slots,
+            &q,
+            m,
+            local,
+            (&sum, &flat, count),
+            &mut todo,
+            &mut last,
+            &mut open,
+            mask,
+            ambiguous,
+            slow,
+        );
+        if open.contains(&true) {
+            pending.push(Straddling { lo2, open, last });
+        }
+    }
+
+    /// Decides the centres of a 2³ cube that straddle ½ within the brick's
+    /// bound: the cube's own far field at the point path's opening ratios,
+    /// its near leaves in lanes again (one traversal and one lane sum for
+    /// the cube, not one walk per centre). Centres still within the bound
+    /// after the finest ratio get exact sums when the caps are few (via
+    /// `slow`), else the last estimate, as the point path does.
+    #[allow(clippy::too_many_arguments)]
+    fn straddling_cube(
+        &self,
+        brick_lo: Voxel,
+        brick_beta: f64,
+        cube: &Straddling,
+        m: &[Option<i32>; 512],
+        mask: &mut BrickMask,
+        ambiguous: &mut u64,
+        slow: &mut Vec<(usize, i32)>,
+    ) {
+        let Straddling {
+            lo2,
+            mut open,
+            mut last,
+        } = *cube;
+        let Some((lo, hi)) = centre_box(lo2, 2, self.dims) else {
+            return;
+        };
+        let (slots, q) = cube_lanes(brick_lo, lo2);
+        for beta in BETAS.into_iter().filter(|&b| b > brick_beta) {
+            let far = self.caps.far_field(lo, hi, beta);
+            let (sum, flat, count) = self.caps.near_lanes(&far.near, &q);
+            let mut todo = open;
+            open = [false; LANES];
+            self.decide_lanes(
+                brick_lo,
+                &slots,
+                &q,
+                m,
+                &far.local,
+                (&sum, &flat, count),
+                &mut todo,
+                &mut last,
+                &mut open,
+                mask,
+                ambiguous,
+                slow,
+            );
+            if !open.contains(&true) {
+                return;
+            }
+        }
+        for k in 0..LANES {
+            if !open[k] {
+                continue;
+            }
+            let Some(mv) = m[slots[k]] else { continue };
+            if self.caps.len() <= EXACT_CAPS {
+                slow.push((slots[k], mv));
+            } else {
+                self.set(brick_lo, slots[k], last[k], mask, ambiguous);
+            }
+        }
+    }
+
+    /// Decides the lanes of `todo` from a far field `local` and a near sum
+    /// `(sum, flat, count)`: lanes the bound decides are set, lanes that may
+    /// lie in a cap's plane go to `slow`, and the others are marked in `open`
+    /// with their estimate in `last`.
+    #[allow(clippy::too_many_arguments)]
+    fn decide_lanes(
+        &self,
+        brick_lo: Voxel,
+        slots: &[usize; LANES],
+        q: &[DVec3; LANES],
+        m: &[Option<i32>; 512],
+        local: &LocalExpansion,
+        (sum, flat, count): (&[f64; LANES], &[bool; LANES], usize),
+        todo: &mut [bool; LANES],
+        last: &mut [f64; LANES],
+        open: &mut [bool; LANES],
+        mask: &mut BrickMask,
+        ambiguous: &mut u64,
+        slow: &mut Vec<(usize, i32)>,
+    ) {
         let error = local.error
             + count as f64 * (2.0 * FAST_ATAN2_ERROR / (4.0 * std::f64::consts::PI))
             + ROUNDING_SLACK;
@@ -922,12 +1072,16 @@ impl Classifier<'_> {
             if !todo[k] {
                 continue;
             }
+            todo[k] = false;
             let Some(mv) = m[slots[k]] else { continue };
             let w = mv as f64 + local.eval(q[k]) + sum[k];
-            if !flat[k] && (w - 0.5).abs() > error {
+            if flat[k] {
+                slow.push((slots[k], mv));
+            } else if (w - 0.5).abs() > error {
                 self.set(brick_lo, slots[k], w, mask, ambiguous);
             } else {
-                slow.push((slots[k], mv));
+                open[k] = true;
+                last[k] = w;
             }
         }
     }
