@@ -782,14 +782,14 @@ impl Classifier<'_> {
     }
 
     /// Records voxel `i` of a brick with winding number `w`.
-    fn set(&self, brick_lo: Voxel, i: usize, w: f64, mask: &mut BrickMask, ambiguous: &mut u64) {
+    fn set(&self, brick_lo: Voxel, i: usize, w: f64, out: &mut BrickOut) {
         if w >= 0.5 {
-            mask[i / 64] |= 1 << (i % 64);
+            out.mask[i / 64] |= 1 << (i % 64);
         }
         if (w - 0.5).abs() < AMBIGUITY_BAND {
-            let v = brick_lo + Voxel::new((i % 8) as i32, (i / 8 % 8) as i32, (i / 64) as i32);
+            let v = brick_lo + slot_voxel(i);
             if !self.surface.contains(v) {
-                *ambiguous += 1;
+                out.ambiguous += 1;
             }
         }
     }
@@ -809,10 +809,9 @@ impl BrickRefiner for Classifier<'_> {
     /// may lie in a cap's plane, and with few caps the last ties, go one by
     /// one to [`Classifier::cap_point`].
     fn refine(&self, key: Voxel, m: &[Option<i32>; 512]) -> (BrickMask, u64) {
-        let (mut mask, mut ambiguous) = ([0u64; 8], 0);
         let lo = key * 8;
         let Some((blo, bhi)) = centre_box(lo, 8, self.dims) else {
-            return (mask, ambiguous);
+            return ([0u64; 8], 0);
         };
         let t = std::time::Instant::now();
         // The opening ratio grows until the far field's bound over the brick
@@ -852,36 +851,27 @@ impl BrickRefiner for Classifier<'_> {
             }
         }
         let t_far = t.elapsed();
-        let (mut slow, mut pending) = (Vec::new(), Vec::new());
+        let mut out = BrickOut::default();
         for (lo2, local, range) in &cubes {
-            self.near_cube(
-                lo,
-                *lo2,
-                local,
-                &near2[range.clone()],
-                m,
-                &mut mask,
-                &mut ambiguous,
-                &mut slow,
-                &mut pending,
-            );
+            self.near_cube(lo, *lo2, local, &near2[range.clone()], m, &mut out);
         }
         let t_near = t.elapsed();
-        let straddling: usize = pending
+        let straddling: usize = out
+            .pending
             .iter()
             .map(|c| c.open.iter().filter(|&&o| o).count())
             .sum();
-        let on_planes = slow.len();
-        for cube in &pending {
-            self.straddling_cube(lo, bb, cube, m, &mut mask, &mut ambiguous, &mut slow);
+        let on_planes = out.slow.len();
+        for cube in std::mem::take(&mut out.pending) {
+            self.straddling_cube(lo, bb, cube, m, &mut out);
         }
-        for &(i, mv) in &slow {
+        for (i, mv) in std::mem::take(&mut out.slow) {
             let q = (lo + slot_voxel(i)).as_dvec3();
             let w = match self.cap_point(q) {
                 Some(v) => mv as f64 + v,
                 None => self.mesh_winding(q),
             };
-            self.set(lo, i, w, &mut mask, &mut ambiguous);
+            self.set(lo, i, w, &mut out);
         }
         let t_all = t.elapsed();
         self.far_ns
@@ -896,8 +886,21 @@ impl BrickRefiner for Classifier<'_> {
         if let Some(p) = self.progress {
             p(done, self.bricks_total.load(Ordering::Relaxed));
         }
-        (mask, ambiguous)
+        (out.mask, out.ambiguous)
     }
+}
+
+/// What deciding one refined brick produces, and the work it leaves.
+#[derive(Default)]
+struct BrickOut {
+    /// The brick's inside centres so far.
+    mask: BrickMask,
+    /// Centres counted in [`SolidStats::ambiguous`].
+    ambiguous: u64,
+    /// Centres for the per-point path: (slot, line value).
+    slow: Vec<(usize, i32)>,
+    /// 2³ cubes with centres the brick's bound left undecided.
+    pending: Vec<Straddling>,
 }
 
 /// The centres of a 2³ cube that [`Classifier::refine`] could not decide
@@ -930,9 +933,8 @@ fn slot_voxel(i: usize) -> Voxel {
 impl Classifier<'_> {
     /// Decides the 2³ cube at `lo2` of the brick at `brick_lo` from its far
     /// field `local` and its near leaves: centres that may lie in a cap's
-    /// plane are pushed onto `slow` (slot, line value), and a cube with
-    /// centres the bound leaves undecided onto `pending`.
-    #[allow(clippy::too_many_arguments)]
+    /// plane go to `out.slow`, and a cube with centres the bound leaves
+    /// undecided to `out.pending`.
     fn near_cube(
         &self,
         brick_lo: Voxel,
@@ -940,46 +942,32 @@ impl Classifier<'_> {
         local: &LocalExpansion,
         near: &[u32],
         m: &[Option<i32>; 512],
-        mask: &mut BrickMask,
-        ambiguous: &mut u64,
-        slow: &mut Vec<(usize, i32)>,
-        pending: &mut Vec<Straddling>,
+        out: &mut BrickOut,
     ) {
         let (slots, q) = cube_lanes(brick_lo, lo2);
         // Centres the caller adds anyway (its surface) need no winding number.
-        let mut todo = [false; LANES];
+        let mut cube = Straddling {
+            lo2,
+            open: [false; LANES],
+            last: [0.0; LANES],
+        };
         for k in 0..LANES {
             if m[slots[k]].is_some() {
                 let v = brick_lo + slot_voxel(slots[k]);
                 if self.surface.contains(v) {
-                    mask[slots[k] / 64] |= 1 << (slots[k] % 64);
+                    out.mask[slots[k] / 64] |= 1 << (slots[k] % 64);
                 } else {
-                    todo[k] = true;
+                    cube.open[k] = true;
                 }
             }
         }
-        if !todo.contains(&true) {
+        if !cube.open.contains(&true) {
             return;
         }
-        let (sum, flat, count) = self.caps.near_lanes(near, &q);
-        let mut last = [0.0; LANES];
-        let mut open = [false; LANES];
-        self.decide_lanes(
-            brick_lo,
-            &slots,
-            &q,
-            m,
-            local,
-            (&sum, &flat, count),
-            &mut todo,
-            &mut last,
-            &mut open,
-            mask,
-            ambiguous,
-            slow,
-        );
-        if open.contains(&true) {
-            pending.push(Straddling { lo2, open, last });
+        let sums = self.caps.near_lanes(near, &q);
+        let rest = self.decide_lanes(brick_lo, cube, m, local, sums, out);
+        if rest.open.contains(&true) {
+            out.pending.push(rest);
         }
     }
 
@@ -988,101 +976,77 @@ impl Classifier<'_> {
     /// its near leaves in lanes again (one traversal and one lane sum for
     /// the cube, not one walk per centre). Centres still within the bound
     /// after the finest ratio get exact sums when the caps are few (via
-    /// `slow`), else the last estimate, as the point path does.
-    #[allow(clippy::too_many_arguments)]
+    /// `out.slow`), else the last estimate, as the point path does.
     fn straddling_cube(
         &self,
         brick_lo: Voxel,
         brick_beta: f64,
-        cube: &Straddling,
+        mut cube: Straddling,
         m: &[Option<i32>; 512],
-        mask: &mut BrickMask,
-        ambiguous: &mut u64,
-        slow: &mut Vec<(usize, i32)>,
+        out: &mut BrickOut,
     ) {
-        let Straddling {
-            lo2,
-            mut open,
-            mut last,
-        } = *cube;
-        let Some((lo, hi)) = centre_box(lo2, 2, self.dims) else {
+        let Some((lo, hi)) = centre_box(cube.lo2, 2, self.dims) else {
             return;
         };
-        let (slots, q) = cube_lanes(brick_lo, lo2);
+        let (slots, q) = cube_lanes(brick_lo, cube.lo2);
         for beta in BETAS.into_iter().filter(|&b| b > brick_beta) {
             let far = self.caps.far_field(lo, hi, beta);
-            let (sum, flat, count) = self.caps.near_lanes(&far.near, &q);
-            let mut todo = open;
-            open = [false; LANES];
-            self.decide_lanes(
-                brick_lo,
-                &slots,
-                &q,
-                m,
-                &far.local,
-                (&sum, &flat, count),
-                &mut todo,
-                &mut last,
-                &mut open,
-                mask,
-                ambiguous,
-                slow,
-            );
-            if !open.contains(&true) {
+            let sums = self.caps.near_lanes(&far.near, &q);
+            cube = self.decide_lanes(brick_lo, cube, m, &far.local, sums, out);
+            if !cube.open.contains(&true) {
                 return;
             }
         }
         for k in 0..LANES {
-            if !open[k] {
+            if !cube.open[k] {
                 continue;
             }
             let Some(mv) = m[slots[k]] else { continue };
             if self.caps.len() <= EXACT_CAPS {
-                slow.push((slots[k], mv));
+                out.slow.push((slots[k], mv));
             } else {
-                self.set(brick_lo, slots[k], last[k], mask, ambiguous);
+                self.set(brick_lo, slots[k], cube.last[k], out);
             }
         }
     }
 
-    /// Decides the lanes of `todo` from a far field `local` and a near sum
-    /// `(sum, flat, count)`: lanes the bound decides are set, lanes that may
-    /// lie in a cap's plane go to `slow`, and the others are marked in `open`
-    /// with their estimate in `last`.
-    #[allow(clippy::too_many_arguments)]
+    /// Decides the open lanes of `cube` from a far field `local` and a near
+    /// sum `(sum, flat, count)` ([`WindingTree::near_lanes`]): lanes the
+    /// bound decides are set, lanes that may lie in a cap's plane go to
+    /// `out.slow`; returns the cube with the lanes still open and their
+    /// estimates.
     fn decide_lanes(
         &self,
         brick_lo: Voxel,
-        slots: &[usize; LANES],
-        q: &[DVec3; LANES],
+        cube: Straddling,
         m: &[Option<i32>; 512],
         local: &LocalExpansion,
-        (sum, flat, count): (&[f64; LANES], &[bool; LANES], usize),
-        todo: &mut [bool; LANES],
-        last: &mut [f64; LANES],
-        open: &mut [bool; LANES],
-        mask: &mut BrickMask,
-        ambiguous: &mut u64,
-        slow: &mut Vec<(usize, i32)>,
-    ) {
+        (sum, flat, count): ([f64; LANES], [bool; LANES], usize),
+        out: &mut BrickOut,
+    ) -> Straddling {
+        let (slots, q) = cube_lanes(brick_lo, cube.lo2);
         let error = local.error
             + count as f64 * (2.0 * FAST_ATAN2_ERROR / (4.0 * std::f64::consts::PI))
             + ROUNDING_SLACK;
+        let mut rest = Straddling {
+            open: [false; LANES],
+            ..cube
+        };
         for k in 0..LANES {
-            if !todo[k] {
+            if !cube.open[k] {
                 continue;
             }
-            todo[k] = false;
             let Some(mv) = m[slots[k]] else { continue };
             let w = mv as f64 + local.eval(q[k]) + sum[k];
             if flat[k] {
-                slow.push((slots[k], mv));
+                out.slow.push((slots[k], mv));
             } else if (w - 0.5).abs() > error {
-                self.set(brick_lo, slots[k], w, mask, ambiguous);
+                self.set(brick_lo, slots[k], w, out);
             } else {
-                open[k] = true;
-                last[k] = w;
+                rest.open[k] = true;
+                rest.last[k] = w;
             }
         }
+        rest
     }
 }
