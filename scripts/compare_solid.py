@@ -14,6 +14,7 @@ usage (from the repository root, with the peers' virtualenv, see
     # the speed table (issue 22): voxkit against libigl, interleaved rounds
     ../shared/peers/.venv/bin/python scripts/compare_solid.py --speed \
         [--rounds 3] [--fractions 5 20 40] [--res 128 256] [--scanned-res 512 1024] [--voxkit BIN]
+        [--baseline OLD_BIN]
 
     # the correctness check: voxkit solid against the winding number, one mesh
     ../shared/peers/.venv/bin/python scripts/compare_solid.py \
@@ -511,6 +512,10 @@ def speed(a):
             j, rss = child_rss([a.voxkit, "voxelize", c["path"], "-r", c["res"], "-o", out, "--mode", "solid",
                                 "--json", "-q", "--force"])
             c["vk"].append((j["voxelize_ms"], rss, j))
+            if a.baseline:
+                j, _ = child_rss([a.baseline, "voxelize", c["path"], "-r", c["res"], "-o", out, "--mode", "solid",
+                                  "--json", "-q", "--force"])
+                c.setdefault("base", []).append(j["voxelize_ms"])
             if c["igl"]:
                 j, rss = child_rss([sys.executable, "-c", IGL_CHILD, c["npz"], 4_000_000 if c["res"] > 256 else 0])
                 c["igl_runs"].append((j["ms"], rss, j))
@@ -521,6 +526,9 @@ def speed(a):
         row = dict(mesh=c["mesh"], damage=c["damage"], res=c["res"], dims=c["lat"].dims,
                    voxkit_ms=vk_ms, voxkit_mib=max(x[1] for x in c["vk"]),
                    voxkit_all_ms=[x[0] for x in c["vk"]], json=c["vk"][-1][2])
+        if a.baseline:
+            row.update(baseline_ms=statistics.median(c["base"]), baseline_all_ms=c["base"],
+                       baseline_over_voxkit=statistics.median(c["base"]) / vk_ms)
         if c["igl"]:
             row.update(libigl_ms=statistics.median(x[0] for x in c["igl_runs"]),
                        libigl_mib=max(x[1] for x in c["igl_runs"]),
@@ -610,6 +618,8 @@ def main():
     ap.add_argument("--no-trimesh", action="store_true")
     ap.add_argument("--keep", help="write the closed and holed OBJ files here instead of a temporary folder")
     ap.add_argument("--voxkit", default=str(ROOT / "target" / "release" / "voxkit"))
+    ap.add_argument("--baseline", metavar="BIN", help="speed mode: another voxkit binary timed in the same "
+                    "interleaved rounds (baseline_ms, baseline_over_voxkit in each row's JSON)")
     ap.add_argument("--margin", type=float, default=0.05, help="|w - 1/2| below which w is near 1/2")
     ap.add_argument("--check-winding", metavar="MESH.obj", help="check mode (see above)")
     ap.add_argument("--exact", action="store_true", help="check mode: exact winding number everywhere")
