@@ -80,6 +80,31 @@ impl SceneAxes {
         right: DVec3::X,
     };
 
+    /// The axes of a scalar volume's world: Z up, and the front where the
+    /// volume's anatomical space puts the patient's front (`−Y` in LPS,
+    /// `+Y` in RAS and LAS), so a head stands upright facing the default
+    /// view. Without an anatomical space: [`SceneAxes::Z_UP`].
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// use voxkit::camera::SceneAxes;
+    /// use voxkit::grid::AnatomicalSpace;
+    /// assert_eq!(SceneAxes::for_volume(None), SceneAxes::Z_UP);
+    /// assert_eq!(SceneAxes::for_volume(Some(AnatomicalSpace::Lps)), SceneAxes::Z_UP);
+    /// let ras = SceneAxes::for_volume(Some(AnatomicalSpace::Ras));
+    /// assert_eq!((ras.front, ras.right), (DVec3::Y, DVec3::NEG_X));
+    /// ```
+    pub fn for_volume(space: Option<crate::grid::AnatomicalSpace>) -> SceneAxes {
+        let front = DVec3::new(0.0, space.map_or(-1.0, |s| s.anterior_y()), 0.0);
+        // The viewer's right, facing the front: up × front (a rotation of
+        // Z_UP, never a mirror).
+        SceneAxes {
+            up: DVec3::Z,
+            front,
+            right: DVec3::Z.cross(front),
+        }
+    }
+
     /// Unit direction from the scene towards the eye for a preset, and the
     /// camera up vector to use with it.
     pub fn view(&self, preset: ViewPreset) -> (DVec3, DVec3) {

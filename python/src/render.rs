@@ -480,7 +480,7 @@ pub fn render_volume<'py>(
         let xf = *scene.transform();
         let d = scene.dims().map(|x| x as f64);
         let (lo, hi) = xf.world_bounds(DVec3::splat(-0.5), DVec3::from_array(d) - 0.5);
-        let cam = v.camera(lo, hi, SceneAxes::Z_UP)?;
+        let cam = v.camera(lo, hi, scene.scene_axes())?;
         Ok(voxkit::render::render_volume(&scene, &cam, &v.opts, &vopts)?.0)
     })?;
     Ok(to_arrays(py, img, v.opts.background))

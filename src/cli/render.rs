@@ -489,7 +489,7 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let prepare_ms = ms(t);
     let (xf, axes) = match (&grid, &renderer) {
         (Some(scene), _) => (scene.xf, scene.axes),
-        (None, Renderer::Volume(vs, _)) => (*vs.transform(), SceneAxes::Z_UP),
+        (None, Renderer::Volume(vs, _)) => (*vs.transform(), vs.scene_axes()),
         _ => unreachable!("the renderer follows the input"),
     };
     let (lo, hi) = match &renderer {

@@ -24,7 +24,7 @@ pub use bits::BitGrid;
 pub use brick::BrickGrid;
 pub use dense::DenseGrid;
 pub use frame::GridFrame;
-pub use volume::{ScalarType, ScalarVolume, VolumeData, VolumeFrame};
+pub use volume::{AnatomicalSpace, ScalarType, ScalarVolume, VolumeData, VolumeFrame};
 
 use crate::error::{Result, VoxkitError};
 

@@ -386,6 +386,56 @@ pub struct ScalarVolume {
     pub data: VolumeData,
     /// Where the grid sits in world space.
     pub frame: VolumeFrame,
+    /// What the world axes mean anatomically, where the file says so
+    /// (NRRD `space`; MetaImage files that carry `AnatomicalOrientation`
+    /// are in ITK's LPS); `None` for files without an anatomical space.
+    pub space: Option<AnatomicalSpace>,
+}
+
+/// An anatomical world space: the patient directions the world's `+x`,
+/// `+y` and `+z` point to (NRRD's `space` names). Every one of them has
+/// `+z` superior, so a head stands upright when `+z` is drawn up; they
+/// differ in which side of the world faces the patient's front.
+///
+/// ```
+/// use voxkit::grid::AnatomicalSpace;
+/// assert_eq!(AnatomicalSpace::from_nrrd("RAS"), Some(AnatomicalSpace::Ras));
+/// assert_eq!(AnatomicalSpace::from_nrrd("left-posterior-superior"), Some(AnatomicalSpace::Lps));
+/// assert_eq!(AnatomicalSpace::from_nrrd("scanner-xyz"), None);
+/// assert_eq!(AnatomicalSpace::Ras.anterior_y(), 1.0);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AnatomicalSpace {
+    /// Right, anterior, superior (`+x` to the patient's right).
+    Ras,
+    /// Left, anterior, superior.
+    Las,
+    /// Left, posterior, superior (DICOM's and ITK's patient space).
+    Lps,
+}
+
+impl AnatomicalSpace {
+    /// The space a NRRD `space` field names (any case, long or short
+    /// form); `None` for the non-anatomical spaces (`scanner-xyz`,
+    /// `3D-right-handed`, `3D-left-handed`) and unknown names.
+    pub fn from_nrrd(name: &str) -> Option<Self> {
+        match name.trim().to_ascii_lowercase().as_str() {
+            "right-anterior-superior" | "ras" => Some(Self::Ras),
+            "left-anterior-superior" | "las" => Some(Self::Las),
+            "left-posterior-superior" | "lps" => Some(Self::Lps),
+            _ => None,
+        }
+    }
+
+    /// The sign of the world `y` axis pointing to the patient's front:
+    /// `+1` where `+y` is anterior (RAS, LAS), `−1` where it is posterior
+    /// (LPS).
+    pub fn anterior_y(self) -> f64 {
+        match self {
+            Self::Ras | Self::Las => 1.0,
+            Self::Lps => -1.0,
+        }
+    }
 }
 
 impl ScalarVolume {
@@ -417,7 +467,17 @@ impl ScalarVolume {
             )));
         }
         frame.validate()?;
-        Ok(ScalarVolume { dims, data, frame })
+        Ok(ScalarVolume {
+            dims,
+            data,
+            frame,
+            space: None,
+        })
+    }
+
+    /// This volume with its world axes' anatomical meaning set.
+    pub fn with_space(self, space: Option<AnatomicalSpace>) -> Self {
+        ScalarVolume { space, ..self }
     }
 
     /// The element type the samples are stored in.

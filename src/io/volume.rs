@@ -15,7 +15,9 @@
 //!   (`hex`, `zrl` are unsupported); `endian` (required for multi-byte binary data);
 //!   `space directions` (any invertible 3×3, `none` entries unsupported) or
 //!   `spacings`, and `space origin`; `space`/`space dimension` for 3-D
-//!   spaces; `line skip`; `byte skip` (≥ 0, or −1 = "the data ends the
+//!   spaces (RAS, LAS and LPS kept as the volume's
+//!   [`AnatomicalSpace`](crate::grid::AnatomicalSpace), which orients the
+//!   default view); `line skip`; `byte skip` (≥ 0, or −1 = "the data ends the
 //!   file", raw only; for gzip and bzip2 it skips decompressed bytes, as the NRRD
 //!   format says); `data file` as one file, `LIST [subdim]` or
 //!   `fmt min max step [subdim]` (`%d`-style, e.g. `slice%03d.raw 1 93 1`).
@@ -27,7 +29,9 @@
 //!   reads it), `BinaryDataByteOrderMSB`/`ElementByteOrderMSB`,
 //!   `CompressedData` (zlib), `BinaryData = False` (text), `HeaderSize`
 //!   (−1 = the data ends the file), `ElementDataFile` (`LOCAL`, a path,
-//!   `LIST`, or a `%d` pattern) as the last field. Keys are matched without
+//!   `LIST`, or a `%d` pattern) as the last field; an
+//!   `AnatomicalOrientation` (other than MetaIO's `???`) marks the world as
+//!   ITK's LPS. Keys are matched without
 //!   regard to case; `ObjectType` may be missing.
 //! - **`.npy`** 3-D arrays of `i1 u1 b1 i2 u2 i4 u4 f4 f8`, either byte
 //!   order, C or Fortran order, with shape `[nx, ny, nz]` and `a[x, y, z]`
@@ -51,7 +55,7 @@ use glam::{DMat3, DVec3};
 
 use crate::error::{Result, VoxkitError};
 use crate::grid::volume::Sample;
-use crate::grid::{Dims, MemoryLimit, ScalarType, ScalarVolume, VolumeFrame};
+use crate::grid::{AnatomicalSpace, Dims, MemoryLimit, ScalarType, ScalarVolume, VolumeFrame};
 
 /// Headers longer than this are refused (a text header of a volume is a
 /// few hundred bytes; a LIST of file names may be longer).
@@ -1309,7 +1313,8 @@ fn read_nrrd(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVol
         decoded_skip,
     };
     let data = read_samples(files, &pieces, &storage, dims, limit)?;
-    ScalarVolume::new(dims, data, frame)
+    let space = f.get(&["space"]).and_then(AnatomicalSpace::from_nrrd);
+    Ok(ScalarVolume::new(dims, data, frame)?.with_space(space))
 }
 
 // ---------------------------------------------------------------------------
@@ -1457,7 +1462,14 @@ fn read_metaimage(files: &Files, path: &Path, limit: MemoryLimit) -> Result<Scal
         decoded_skip: 0,
     };
     let data = read_samples(files, &pieces, &storage, dims, limit)?;
-    ScalarVolume::new(dims, data, frame)
+    // ITK writes `AnatomicalOrientation` (MetaIO's `???` means unknown) and
+    // its physical space is LPS whatever the voxel axes' order; the
+    // direction matrix already places those axes.
+    let space = f
+        .get(&["anatomicalorientation"])
+        .filter(|o| !o.trim().is_empty() && !o.contains('?'))
+        .map(|_| AnatomicalSpace::Lps);
+    Ok(ScalarVolume::new(dims, data, frame)?.with_space(space))
 }
 
 // ---------------------------------------------------------------------------

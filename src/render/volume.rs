@@ -98,9 +98,9 @@ use std::time::Instant;
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 
-use crate::camera::Camera;
+use crate::camera::{Camera, SceneAxes};
 use crate::error::{Result, VoxkitError};
-use crate::grid::{MemoryLimit, ScalarVolume};
+use crate::grid::{AnatomicalSpace, MemoryLimit, ScalarVolume};
 use crate::line::Segment;
 use crate::line::adaptive::{Core, RayMode};
 use crate::line::amanatides_woo::AwStepper;
@@ -131,6 +131,8 @@ pub struct VolumeScene {
     xf: GridTransform,
     /// `∛|det axes|`: the reference length of the opacity correction.
     ref_len: f64,
+    /// The world's anatomical meaning, if the file gave one.
+    space: Option<AnatomicalSpace>,
 }
 
 impl VolumeScene {
@@ -168,11 +170,20 @@ impl VolumeScene {
     pub fn from_volume(volume: ScalarVolume, limit: MemoryLimit) -> Result<Self> {
         let xf = GridTransform::new(volume.frame.origin, volume.frame.axes)?;
         let ref_len = volume.frame.axes.determinant().abs().cbrt();
+        let space = volume.space;
         Ok(VolumeScene {
             bricks: VolumeBricks::from_volume(volume, limit)?,
             xf,
             ref_len,
+            space,
         })
+    }
+
+    /// The axes the default views refer to: Z up, the front where the
+    /// volume's anatomical space has the patient's front
+    /// ([`SceneAxes::for_volume`]).
+    pub fn scene_axes(&self) -> SceneAxes {
+        SceneAxes::for_volume(self.space)
     }
 
     /// Extents in voxels.

@@ -15,7 +15,7 @@ use glam::{DMat3, DVec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use voxkit::VoxkitError;
-use voxkit::grid::{MemoryLimit, ScalarType, ScalarVolume, VolumeFrame};
+use voxkit::grid::{AnatomicalSpace, MemoryLimit, ScalarType, ScalarVolume, VolumeFrame};
 use voxkit::io::volume::{is_volume_path, read_volume};
 
 const DIMS: [usize; 3] = [5, 3, 7];
@@ -756,10 +756,17 @@ fn real_volumes_read_the_same_through_both_headers() {
     assert_eq!(a, b);
     assert_eq!(a.dims, [64, 64, 93]);
     assert_eq!(a.source_type(), ScalarType::I16);
+    // Both headers place it as VTK's examples view it: LPS, index x to the
+    // right, z downwards, the voxel centres spanning the same box as the
+    // plain spacings did.
     assert_eq!(
         a.frame,
-        VolumeFrame::from_spacing(DVec3::ZERO, DVec3::new(3.2, 3.2, 1.5))
+        VolumeFrame {
+            origin: DVec3::new(201.6, 0.0, 138.0),
+            axes: DMat3::from_diagonal(DVec3::new(-3.2, 3.2, -1.5)),
+        }
     );
+    assert_eq!(a.space, Some(AnatomicalSpace::Lps));
     assert_eq!(a.range(), Some((0.0, 3926.0)));
     let mean = (0..a.len()).map(|i| a.data.value(i).unwrap()).sum::<f64>() / a.len() as f64;
     assert!((mean - 507.7).abs() < 0.05, "CT mean {mean}");
@@ -805,7 +812,14 @@ fn ct_head_from_its_original_slice_files() {
         MemoryLimit::DEFAULT,
     )
     .unwrap();
-    assert_eq!(a, b);
+    // The same samples; the original's `3D-left-handed` is no anatomical
+    // space, and its spacings no orientation (ours adds both).
+    assert_eq!((a.dims, &a.data), (b.dims, &b.data));
+    assert_eq!(
+        a.frame,
+        VolumeFrame::from_spacing(DVec3::ZERO, DVec3::new(3.2, 3.2, 1.5))
+    );
+    assert_eq!(a.space, None);
 }
 
 /// A valid attached NRRD of `DIMS` int16 with `extra` header lines and
@@ -1234,4 +1248,101 @@ fn garbage_never_panics() {
         }
     }
     assert!(tried > 2000);
+}
+
+/// The anatomical space a header names is kept (NRRD `space`: RAS, LAS,
+/// LPS in either spelling and any case; MetaImage: ITK's LPS where an
+/// `AnatomicalOrientation` is given), and it turns the default views: the
+/// front of the scene is where the patient's front is.
+#[test]
+fn anatomical_spaces_orient_the_default_view() {
+    use voxkit::camera::SceneAxes;
+    use voxkit::grid::AnatomicalSpace::{Las, Lps, Ras};
+    use voxkit::io::volume::read_volume_bytes;
+    use voxkit::render::VolumeScene;
+    let data = [0u8; 8];
+    let nrrd = |space: &str| {
+        let h = format!(
+            "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n{space}\
+             data file: d.raw\n"
+        );
+        read_volume_bytes(
+            Path::new("v.nhdr"),
+            h.as_bytes(),
+            &data,
+            MemoryLimit::DEFAULT,
+        )
+        .unwrap()
+        .space
+    };
+    for (field, want) in [
+        ("space: RAS\n", Some(Ras)),
+        ("space: right-anterior-superior\n", Some(Ras)),
+        ("space: Left-Anterior-Superior\n", Some(Las)),
+        ("space: lps\n", Some(Lps)),
+        (
+            "space: LPS\nspace directions: (0,1,0) (-1,0,0) (0,0,2)\n",
+            Some(Lps),
+        ),
+        ("space: scanner-xyz\n", None),
+        ("space: 3D-right-handed\n", None),
+        ("space: 3D-left-handed\n", None),
+        ("", None),
+    ] {
+        assert_eq!(nrrd(field), want, "{field:?}");
+    }
+    let meta = |extra: &str| {
+        let h = format!(
+            "NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n{extra}ElementDataFile = d.raw\n"
+        );
+        read_volume_bytes(
+            Path::new("v.mhd"),
+            h.as_bytes(),
+            &data,
+            MemoryLimit::DEFAULT,
+        )
+        .unwrap()
+        .space
+    };
+    assert_eq!(meta("AnatomicalOrientation = RAI\n"), Some(Lps));
+    assert_eq!(meta("AnatomicalOrientation = ???\n"), None);
+    assert_eq!(meta(""), None);
+
+    // The scene's front: −y in LPS (and without a space, as before), +y in
+    // RAS and LAS; always z up, and the viewer's right completing a
+    // rotation (never a mirror).
+    for (space, front_y) in [
+        (None, -1.0),
+        (Some(Lps), -1.0),
+        (Some(Ras), 1.0),
+        (Some(Las), 1.0),
+    ] {
+        let vol = ScalarVolume::new(
+            [2, 2, 2],
+            voxkit::grid::VolumeData::U8(vec![0; 8]),
+            VolumeFrame::default(),
+        )
+        .unwrap()
+        .with_space(space);
+        let axes = VolumeScene::new(&vol, MemoryLimit::DEFAULT)
+            .unwrap()
+            .scene_axes();
+        assert_eq!(axes.up, DVec3::Z);
+        assert_eq!(axes.front, DVec3::new(0.0, front_y, 0.0), "{space:?}");
+        assert_eq!(axes.right.cross(axes.up), axes.front, "{space:?}");
+        assert_eq!(axes == SceneAxes::Z_UP, front_y < 0.0);
+    }
+}
+
+/// The bundled CT head stands upright in the default views (Z up): its
+/// first slice, the top of the skull, is the highest in the world.
+#[test]
+fn ct_head_is_upright() {
+    let a = read_volume(
+        &data_dir().join("headsq_quarter/headsq_quarter.nhdr"),
+        MemoryLimit::DEFAULT,
+    )
+    .unwrap();
+    let slice_z = |k: f64| (a.frame.origin + a.frame.axes * DVec3::new(0.0, 0.0, k)).z;
+    assert!(slice_z(0.0) > slice_z(92.0));
 }
