@@ -397,6 +397,7 @@ fn in_place<T: Stored>(
     // after it (already overwritten in `v`), both with `fix` applied.
     let mut cur: Vec<T> = Vec::new();
     let mut next: Vec<T> = Vec::new();
+    let mut scratch = Vec::new();
     for k in (0..bd[2]).rev() {
         let z0 = k * BRICK as usize;
         let z1 = (z0 + BRICK as usize).min(nz);
@@ -421,7 +422,7 @@ fn in_place<T: Stored>(
                 &buf[(z * ny + y) * nx..][..nx]
             };
             let rlayer = &mut ranges[k * bd[0] * bd[1]..(k + 1) * bd[0] * bd[1]];
-            layer_ranges(rlayer, k, dims, bd, &row, &fix);
+            layer_ranges(rlayer, k, dims, bd, &row, &fix, &mut scratch);
         }
         let out = &mut v[k * layer..(k + 1) * layer];
         let cur_ref = &cur;
@@ -458,6 +459,7 @@ fn narrowed(
     out.resize(total, 0.0);
     let conv = |x: f64| denan(x as f32);
     let mut slab: Vec<f32> = Vec::new();
+    let mut scratch = Vec::new();
     for k in 0..bd[2] {
         let z0 = k * BRICK as usize;
         let lo = z0.saturating_sub(2);
@@ -467,7 +469,7 @@ fn narrowed(
         let slab_rows = &slab;
         let row = |z: usize, y: usize| &slab_rows[((z - lo) * ny + y) * nx..][..nx];
         let rlayer = &mut ranges[k * bd[0] * bd[1]..(k + 1) * bd[0] * bd[1]];
-        layer_ranges(rlayer, k, dims, bd, &row, &|x| x);
+        layer_ranges(rlayer, k, dims, bd, &row, &|x| x, &mut scratch);
         let z1 = (z0 + BRICK as usize).min(nz);
         let slab_ref = &slab;
         out[k * layer..(k + 1) * layer]
@@ -514,7 +516,11 @@ fn fill_brick<'a, T: Copy + Default + 'a>(
 
 /// The ranges of layer `k`'s bricks (`out`, x fastest) from the dense rows
 /// `row(z, y)` of slices `8k − 2 ..= 8k + 9` (clipped to the volume), each
-/// read through `fix`.
+/// read through `fix`. Separable: a row pass finds, for every row of those
+/// slices and every brick column, the ranges over the row's x-extents
+/// `[8bx − r, 8bx + 7 + r]` (each sample read once, plus four apron
+/// samples per brick column); a brick pass combines the rows of the
+/// brick's box grown by `r`. `scratch` holds the row pass's results.
 fn layer_ranges<'a, T: Stored + 'a>(
     out: &mut [BrickRange],
     k: usize,
@@ -522,23 +528,37 @@ fn layer_ranges<'a, T: Stored + 'a>(
     bd: [usize; 3],
     row: &(impl Fn(usize, usize) -> &'a [T] + Sync),
     fix: &(impl Fn(T) -> T + Sync),
+    scratch: &mut Vec<BrickRange>,
 ) {
-    let dims = [nx as i32, ny as i32, nz as i32];
+    let b = BRICK as usize;
+    let (z0, z1) = (k * b, (k * b + b - 1).min(nz - 1));
+    let z_lo = z0.saturating_sub(2);
+    let z_hi = (z1 + 2).min(nz - 1);
+    scratch.clear();
+    scratch.resize((z_hi - z_lo + 1) * ny * bd[0], BrickRange::EMPTY);
+    scratch
+        .par_chunks_mut(bd[0] * ny)
+        .enumerate()
+        .for_each(|(zi, slice)| {
+            let mut buf = Vec::with_capacity(nx);
+            for (y, ranges) in slice.chunks_mut(bd[0]).enumerate() {
+                row_pass(row(z_lo + zi, y), nx, ranges, fix, &mut buf);
+            }
+        });
+    let rows = &scratch[..];
     out.par_chunks_mut(bd[0])
         .enumerate()
         .for_each(|(by, brow)| {
-            for (bx, r) in brow.iter_mut().enumerate() {
-                let b = IVec3::new(bx as i32, by as i32, k as i32);
-                let lo = b * BRICK;
-                let hi = (lo + (BRICK - 1)).min(IVec3::from_array(dims) - 1);
-                for z in (lo.z - 2).max(0)..=(hi.z + 2).min(dims[2] - 1) {
-                    let rz = (lo.z - z).max(z - hi.z).max(0);
-                    for y in (lo.y - 2).max(0)..=(hi.y + 2).min(dims[1] - 1) {
-                        let ring = (lo.y - y).max(y - hi.y).max(rz) as usize;
-                        let rows = row_ranges(row(z as usize, y as usize), lo.x, hi.x, fix);
-                        for k in ring..3 {
-                            r.min[k] = r.min[k].min(rows.0[k]);
-                            r.max[k] = r.max[k].max(rows.1[k]);
+            let (y0, y1) = (by * b, (by * b + b - 1).min(ny - 1));
+            for z in z_lo..=z_hi {
+                let rz = z0.saturating_sub(z).max(z.saturating_sub(z1));
+                for y in y0.saturating_sub(2)..=(y1 + 2).min(ny - 1) {
+                    let ring = y0.saturating_sub(y).max(y.saturating_sub(y1)).max(rz);
+                    let line = &rows[((z - z_lo) * ny + y) * bd[0]..][..bd[0]];
+                    for (r, e) in brow.iter_mut().zip(line) {
+                        for q in ring..3 {
+                            r.min[q] = r.min[q].min(e.min[q]);
+                            r.max[q] = r.max[q].max(e.max[q]);
                         }
                     }
                 }
@@ -546,36 +566,48 @@ fn layer_ranges<'a, T: Stored + 'a>(
         });
 }
 
-/// Min and max of a row's x-extents `[lo − r, hi + r]` (clipped), r = 0..2.
+/// Per brick column `bx` of one dense row (`nx` samples, read through
+/// `fix` into `buf`): the min and max over `[8bx − r, 8bx + 7 + r]`
+/// (clipped), `r = 0, 1, 2`.
 #[inline]
-fn row_ranges<T: Stored>(
+fn row_pass<T: Stored>(
     row: &[T],
-    lo: i32,
-    hi: i32,
+    nx: usize,
+    out: &mut [BrickRange],
     fix: &impl Fn(T) -> T,
-) -> ([f32; 3], [f32; 3]) {
-    let nx = row.len() as i32;
-    let inner = &row[lo as usize..=hi as usize];
-    let mut mn = f32::INFINITY;
-    let mut mx = f32::NEG_INFINITY;
-    for &s in inner {
-        let s = fix(s).value();
-        mn = mn.min(s);
-        mx = mx.max(s);
-    }
-    let mut out = ([mn; 3], [mx; 3]);
-    for r in 1..3 {
-        for x in [lo - r, hi + r] {
-            if x >= 0 && x < nx {
-                let s = fix(row[x as usize]).value();
-                mn = mn.min(s);
-                mx = mx.max(s);
+    buf: &mut Vec<f32>,
+) {
+    buf.clear();
+    buf.extend(row[..nx].iter().map(|&s| fix(s).value()));
+    let b = BRICK as usize;
+    for (bx, (o, chunk)) in out.iter_mut().zip(buf.chunks(b)).enumerate() {
+        // No NaN reaches here (`fix` and the narrowing map it to −∞), so
+        // plain comparisons are `f32::min`/`max`; whole chunks have a fixed
+        // length, and their reductions vectorize.
+        let fold = |c: &[f32]| {
+            c.iter()
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(mn, mx), &v| {
+                    (if v < mn { v } else { mn }, if v > mx { v } else { mx })
+                })
+        };
+        let (mut mn, mut mx) = match <&[f32; 8]>::try_from(chunk) {
+            Ok(c) => fold(c),
+            Err(_) => fold(chunk),
+        };
+        o.min[0] = mn;
+        o.max[0] = mx;
+        let (lo, hi) = (bx * b, bx * b + chunk.len() - 1);
+        for r in 1..3 {
+            for x in [lo.wrapping_sub(r), hi + r] {
+                if let Some(&v) = buf.get(x) {
+                    mn = mn.min(v);
+                    mx = mx.max(v);
+                }
             }
+            o.min[r] = mn;
+            o.max[r] = mx;
         }
-        out.0[r as usize] = mn;
-        out.1[r as usize] = mx;
     }
-    out
 }
 
 #[cfg(test)]
@@ -727,7 +759,14 @@ mod tests {
     /// and with −∞ (NaN) samples.
     #[test]
     fn brick_ranges_match_brute_force() {
-        for dims in [[19usize, 9, 17], [8, 8, 8], [5, 30, 26]] {
+        for dims in [
+            [19usize, 9, 17],
+            [8, 8, 8],
+            [5, 30, 26],
+            [2, 3, 10],
+            [1, 1, 20],
+            [9, 1, 1],
+        ] {
             let n = dims.iter().product::<usize>();
             let data: Vec<f32> = (0..n)
                 .map(|i| {
