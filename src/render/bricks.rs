@@ -397,7 +397,6 @@ fn in_place<T: Stored>(
     // after it (already overwritten in `v`), both with `fix` applied.
     let mut cur: Vec<T> = Vec::new();
     let mut next: Vec<T> = Vec::new();
-    let mut scratch = Vec::new();
     for k in (0..bd[2]).rev() {
         let z0 = k * BRICK as usize;
         let z1 = (z0 + BRICK as usize).min(nz);
@@ -422,7 +421,7 @@ fn in_place<T: Stored>(
                 &buf[(z * ny + y) * nx..][..nx]
             };
             let rlayer = &mut ranges[k * bd[0] * bd[1]..(k + 1) * bd[0] * bd[1]];
-            layer_ranges(rlayer, k, dims, bd, &row, &fix, &mut scratch);
+            layer_ranges(rlayer, k, dims, bd, &row, &fix);
         }
         let out = &mut v[k * layer..(k + 1) * layer];
         let cur_ref = &cur;
@@ -459,7 +458,6 @@ fn narrowed(
     out.resize(total, 0.0);
     let conv = |x: f64| denan(x as f32);
     let mut slab: Vec<f32> = Vec::new();
-    let mut scratch = Vec::new();
     for k in 0..bd[2] {
         let z0 = k * BRICK as usize;
         let lo = z0.saturating_sub(2);
@@ -469,7 +467,7 @@ fn narrowed(
         let slab_rows = &slab;
         let row = |z: usize, y: usize| &slab_rows[((z - lo) * ny + y) * nx..][..nx];
         let rlayer = &mut ranges[k * bd[0] * bd[1]..(k + 1) * bd[0] * bd[1]];
-        layer_ranges(rlayer, k, dims, bd, &row, &|x| x, &mut scratch);
+        layer_ranges(rlayer, k, dims, bd, &row, &|x| x);
         let z1 = (z0 + BRICK as usize).min(nz);
         let slab_ref = &slab;
         out[k * layer..(k + 1) * layer]
@@ -516,11 +514,13 @@ fn fill_brick<'a, T: Copy + Default + 'a>(
 
 /// The ranges of layer `k`'s bricks (`out`, x fastest) from the dense rows
 /// `row(z, y)` of slices `8k − 2 ..= 8k + 9` (clipped to the volume), each
-/// read through `fix`. Separable: a row pass finds, for every row of those
-/// slices and every brick column, the ranges over the row's x-extents
-/// `[8bx − r, 8bx + 7 + r]` (each sample read once, plus four apron
-/// samples per brick column); a brick pass combines the rows of the
-/// brick's box grown by `r`. `scratch` holds the row pass's results.
+/// read through `fix`. Separable, one row of bricks at a time (in
+/// parallel): a row pass finds, for each row of the bricks' grown box and
+/// each brick column, the ranges over the row's x-extents
+/// `[8bx − r, 8bx + 7 + r]` (each sample converted once, plus four apron
+/// samples per brick column); a brick pass combines the rows of each
+/// brick's box grown by `r`. The row results of one brick row (12 × 12
+/// rows × the brick columns) stay in the cache.
 fn layer_ranges<'a, T: Stored + 'a>(
     out: &mut [BrickRange],
     k: usize,
@@ -528,34 +528,29 @@ fn layer_ranges<'a, T: Stored + 'a>(
     bd: [usize; 3],
     row: &(impl Fn(usize, usize) -> &'a [T] + Sync),
     fix: &(impl Fn(T) -> T + Sync),
-    scratch: &mut Vec<BrickRange>,
 ) {
     let b = BRICK as usize;
     let (z0, z1) = (k * b, (k * b + b - 1).min(nz - 1));
     let z_lo = z0.saturating_sub(2);
     let z_hi = (z1 + 2).min(nz - 1);
-    scratch.clear();
-    scratch.resize((z_hi - z_lo + 1) * ny * bd[0], BrickRange::EMPTY);
-    scratch
-        .par_chunks_mut(bd[0] * ny)
-        .enumerate()
-        .for_each(|(zi, slice)| {
-            let mut buf = Vec::with_capacity(nx);
-            for (y, ranges) in slice.chunks_mut(bd[0]).enumerate() {
-                row_pass(row(z_lo + zi, y), nx, ranges, fix, &mut buf);
-            }
-        });
-    let rows = &scratch[..];
-    out.par_chunks_mut(bd[0])
-        .enumerate()
-        .for_each(|(by, brow)| {
+    out.par_chunks_mut(bd[0]).enumerate().for_each_init(
+        || (Vec::new(), Vec::with_capacity(nx)),
+        |(rows, buf), (by, brow)| {
             let (y0, y1) = (by * b, (by * b + b - 1).min(ny - 1));
+            let (y_lo, y_hi) = (y0.saturating_sub(2), (y1 + 2).min(ny - 1));
+            let at = |z: usize, y: usize| ((z - z_lo) * (y_hi - y_lo + 1) + (y - y_lo)) * bd[0];
+            rows.clear();
+            rows.resize(at(z_hi, y_hi) + bd[0], BrickRange::EMPTY);
+            for z in z_lo..=z_hi {
+                for y in y_lo..=y_hi {
+                    row_pass(row(z, y), nx, &mut rows[at(z, y)..][..bd[0]], fix, buf);
+                }
+            }
             for z in z_lo..=z_hi {
                 let rz = z0.saturating_sub(z).max(z.saturating_sub(z1));
-                for y in y0.saturating_sub(2)..=(y1 + 2).min(ny - 1) {
+                for y in y_lo..=y_hi {
                     let ring = y0.saturating_sub(y).max(y.saturating_sub(y1)).max(rz);
-                    let line = &rows[((z - z_lo) * ny + y) * bd[0]..][..bd[0]];
-                    for (r, e) in brow.iter_mut().zip(line) {
+                    for (r, e) in brow.iter_mut().zip(&rows[at(z, y)..][..bd[0]]) {
                         for q in ring..3 {
                             r.min[q] = r.min[q].min(e.min[q]);
                             r.max[q] = r.max[q].max(e.max[q]);
@@ -563,7 +558,8 @@ fn layer_ranges<'a, T: Stored + 'a>(
                     }
                 }
             }
-        });
+        },
+    );
 }
 
 /// Per brick column `bx` of one dense row (`nx` samples, read through
