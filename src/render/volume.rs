@@ -1676,6 +1676,29 @@ mod tests {
         }
     }
 
+    /// A random segment inside a volume of `dims` (a fifth of its
+    /// coordinates on voxel centres, so it runs along faces and edges), and
+    /// its continuous ray's geometry.
+    fn random_segment(
+        rng: &mut rand_chacha::ChaCha8Rng,
+        dims: [usize; 3],
+    ) -> ([f64; 3], [f64; 3], Segment, RayGeom) {
+        use rand::Rng;
+        let mut p = || -> [f64; 3] {
+            std::array::from_fn(|k| {
+                let x = rng.random_range(-0.49..dims[k] as f64 - 0.51);
+                if rng.random_bool(0.2) { x.round() } else { x }
+            })
+        };
+        let (a, b) = (p(), p());
+        let seg = Segment::from_f64(a, b).unwrap();
+        let ray = GridRay {
+            o: DVec3::from_array(a),
+            d: (DVec3::from_array(b) - DVec3::from_array(a)).normalize_or(DVec3::X),
+        };
+        (a, b, seg, RayGeom::new(&ray, dims.map(|d| d as i32)))
+    }
+
     /// The specialised walks visit exactly the voxels of the core's walk,
     /// in order: the 6-ray's tripod state against the core in 6 mode, and
     /// the adaptive walk (own tripod in flagged bricks, the core elsewhere)
@@ -1712,19 +1735,7 @@ mod tests {
             };
             let ctx = FrameCtx::new(&scene, &cam, &opts, &vopts);
             for _ in 0..300 {
-                let p = |rng: &mut rand_chacha::ChaCha8Rng| -> [f64; 3] {
-                    std::array::from_fn(|k| {
-                        let x = rng.random_range(-0.49..dims[k] as f64 - 0.51);
-                        if rng.random_bool(0.2) { x.round() } else { x }
-                    })
-                };
-                let (a, b) = (p(&mut rng), p(&mut rng));
-                let seg = Segment::from_f64(a, b).unwrap();
-                let ray = GridRay {
-                    o: DVec3::from_array(a),
-                    d: (DVec3::from_array(b) - DVec3::from_array(a)).normalize_or(DVec3::X),
-                };
-                let g = RayGeom::new(&ray, ctx.dims);
+                let (_, _, seg, g) = random_segment(&mut rng, dims);
                 let walk =
                     |w: fn(&FrameCtx, &RayGeom, &Segment, &mut Record, &mut CastCounters)| {
                         let mut r = Record(Vec::new());
@@ -1795,19 +1806,7 @@ mod tests {
                 };
                 let ctx = FrameCtx::new(&scene, &cam, &opts, &vopts);
                 for _ in 0..200 {
-                    let p = |rng: &mut rand_chacha::ChaCha8Rng| -> [f64; 3] {
-                        std::array::from_fn(|k| {
-                            let x = rng.random_range(-0.49..dims[k] as f64 - 0.51);
-                            if rng.random_bool(0.2) { x.round() } else { x }
-                        })
-                    };
-                    let (a, b) = (p(&mut rng), p(&mut rng));
-                    let seg = Segment::from_f64(a, b).unwrap();
-                    let gray = GridRay {
-                        o: DVec3::from_array(a),
-                        d: (DVec3::from_array(b) - DVec3::from_array(a)).normalize_or(DVec3::X),
-                    };
-                    let g = RayGeom::new(&gray, ctx.dims);
+                    let (a, b, seg, g) = random_segment(&mut rng, dims);
                     // Hints around a point of the segment, up to two voxels off.
                     let t: f64 = rng.random_range(0.0..1.0);
                     let on = DVec3::from_array(a).lerp(DVec3::from_array(b), t).round();
