@@ -517,10 +517,11 @@ fn fill_brick<'a, T: Copy + Default + 'a>(
 /// read through `fix`. Separable, one row of bricks at a time (in
 /// parallel): a row pass finds, for each row of the bricks' grown box and
 /// each brick column, the ranges over the row's x-extents
-/// `[8bx − r, 8bx + 7 + r]` (each sample converted once, plus four apron
-/// samples per brick column); a brick pass combines the rows of each
-/// brick's box grown by `r`. The row results of one brick row (12 × 12
-/// rows × the brick columns) stay in the cache.
+/// `[8bx − r, 8bx + 7 + r]` (a row's samples converted once per brick row
+/// that reads it: the two apron rows on each side are also read by the
+/// neighbouring brick row); a brick pass combines the rows of each brick's
+/// box grown by `r`. The row results of one brick row (12 × 12 rows × the
+/// brick columns) stay in the cache.
 fn layer_ranges<'a, T: Stored + 'a>(
     out: &mut [BrickRange],
     k: usize,

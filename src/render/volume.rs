@@ -1308,8 +1308,8 @@ fn mip_hint_floor<const TRI: bool>(
     hints: &[Option<IVec3>],
 ) -> f32 {
     /// Distance a point must keep from its voxel cube's faces: far above
-    /// the f64 error of the projection (the points are within 2^12 of 0,
-    /// the error ~1e-12), far below a voxel.
+    /// the f64 error of the projection (grid coordinates stay below 2^30,
+    /// where f64 rounds by ~1e-7), far below a voxel.
     const MARGIN: f64 = 1e-3;
     if ctx.opts.ray == RayKind::TwentySix {
         return f32::NEG_INFINITY;
@@ -1665,13 +1665,13 @@ mod tests {
         );
     }
 
-    /// Records the visited voxels.
-    struct Record(Vec<IVec3>);
+    /// Records the visited voxels and the samples read there.
+    struct Record(Vec<(IVec3, f32)>);
 
     impl Accum for Record {
         const LEN: bool = false;
-        fn visit(&mut self, v: IVec3, _s: f32, _len: f64) -> bool {
-            self.0.push(v);
+        fn visit(&mut self, v: IVec3, s: f32, _len: f64) -> bool {
+            self.0.push((v, s));
             false
         }
     }
@@ -1751,23 +1751,12 @@ mod tests {
                 assert_eq!(ad, walk(walk_exact::<Record, false, KAD>), "{seg:?}");
                 let flagged = ad
                     .iter()
-                    .filter(|v| ctx.class[scene.brick_index(**v >> 3)].flag == 0)
+                    .filter(|(v, _)| ctx.class[scene.brick_index(*v >> 3)].flag == 0)
                     .count();
                 mixed += usize::from(flagged > 0 && flagged < ad.len());
             }
         }
         assert!(mixed > 300, "{mixed}");
-    }
-
-    /// Every sample a walk reads, with its voxel.
-    struct Samples(Vec<(IVec3, f32)>);
-
-    impl Accum for Samples {
-        const LEN: bool = false;
-        fn visit(&mut self, v: IVec3, s: f32, _len: f64) -> bool {
-            self.0.push((v, s));
-            false
-        }
     }
 
     /// The MIP's floor from neighbours' hits is a sample the ray reads: for
@@ -1826,7 +1815,7 @@ mod tests {
                         mip_hint_floor::<true>(&ctx, &g, &seg, &hints)
                     };
                     let read = |kind: RayKind| {
-                        let mut r = Samples(Vec::new());
+                        let mut r = Record(Vec::new());
                         let mut n = CastCounters::default();
                         let o = RenderOptions { ray: kind, ..opts };
                         let c = FrameCtx::new(&scene, &cam, &o, &vopts);
