@@ -29,6 +29,7 @@
 pub mod bricks;
 mod cast;
 pub mod measure;
+mod normal;
 mod occupancy;
 mod paged;
 pub mod volume;
@@ -50,6 +51,11 @@ pub use volume::{
 use crate::error::{Result, VoxkitError};
 use crate::grid::{GridFrame, MemoryLimit};
 use crate::line::Segment;
+use normal::{FitCache, Moments};
+
+/// Image rows per task of [`render_grid_window`]: the rows of a band share
+/// their smooth normals' fits.
+const NORMAL_BAND: usize = 8;
 
 /// How a pixel's discrete ray steps (`--ray`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum)]
@@ -92,8 +98,9 @@ impl RayKind {
 pub enum NormalMode {
     /// The face of the hit voxel the ray enters through.
     Face,
-    /// The negated gradient of the occupancy (3×3×3 neighbourhood, weights
-    /// `1/|o|²`); the face normal where it vanishes.
+    /// A plane fitted to the occupied voxels within 3 of the hit (Gaussian
+    /// weights; see the `normal` module): smooth on curved surfaces, without
+    /// the moiré of a 3×3×3 gradient.
     Smooth,
 }
 
@@ -552,24 +559,32 @@ pub fn render_grid_window<G: RenderBricks>(
         depth: vec![f32::INFINITY; n],
         hit: vec![None; n],
     };
+    // Bands of rows: a band's rows run in order, so a hit voxel's fit for
+    // its smooth normal is shared with the pixels right of and below it.
+    let band = w as usize * NORMAL_BAND;
     let (counters, hits) = img
         .color
-        .par_chunks_mut(w as usize)
-        .zip(img.depth.par_chunks_mut(w as usize))
-        .zip(img.hit.par_chunks_mut(w as usize))
+        .par_chunks_mut(band)
+        .zip(img.depth.par_chunks_mut(band))
+        .zip(img.hit.par_chunks_mut(band))
         .enumerate()
-        .map(|(y, ((color, depth), hit))| {
+        .map(|(b, ((color, depth), hit))| {
             let mut c = cast::CastCounters::default();
             let mut hits = 0u64;
-            for x in 0..w as usize {
+            let mut fits = (opts.normals == NormalMode::Smooth).then(|| FitCache::new(w as usize));
+            for i in 0..color.len() {
+                let (x, y) = (i % w as usize, b * NORMAL_BAND + i / w as usize);
                 let (ray, seg) = setup.pixel(x0 + x as u32, y0 + y as u32);
                 let v = seg.and_then(|s| cast::first_hit(occ, &s, opts.ray, opts.skip, &mut c));
                 if let Some(v) = v {
                     hits += 1;
                     let (t, axis) = ray.entry(v);
-                    color[x] = shade(occ, &setup, &ray, v, axis, opts);
-                    depth[x] = t as f32;
-                    hit[x] = Some(v);
+                    let fit = fits
+                        .as_mut()
+                        .map(|f| f.moments(x, v, || Moments::around(v, |b| occ.occupancy_mask(b))));
+                    color[i] = shade(occ, &setup, &ray, v, axis, fit.as_ref(), opts);
+                    depth[i] = t as f32;
+                    hit[i] = Some(v);
                 }
             }
             (c, hits)
@@ -682,13 +697,15 @@ pub(crate) fn camera_check(camera: &Camera) -> Result<()> {
     c.validate()
 }
 
-/// Lambert from a headlight plus ambient, on the hit voxel's colour.
+/// Lambert from a headlight plus ambient, on the hit voxel's colour; `fit`:
+/// the window moments around the hit, for smooth normals.
 fn shade<G: RenderBricks>(
     occ: &G,
     setup: &RaySetup,
     ray: &GridRay,
     v: IVec3,
     axis: Option<usize>,
+    fit: Option<&Moments>,
     opts: &RenderOptions,
 ) -> [f32; 4] {
     let face = match axis {
@@ -699,12 +716,9 @@ fn shade<G: RenderBricks>(
         }
         None => -ray.d,
     };
-    let n_grid = match opts.normals {
-        NormalMode::Face => face,
-        NormalMode::Smooth => {
-            let g = occ.gradient(v);
-            if g.length_squared() > 1e-12 { -g } else { face }
-        }
+    let n_grid = match (opts.normals, fit) {
+        (NormalMode::Smooth, Some(fit)) => fit.normal(-ray.d),
+        _ => face,
     };
     let n = setup.world_normal(n_grid);
     let view = (setup.xf.axes * ray.d).normalize_or_zero();

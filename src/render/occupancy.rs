@@ -84,52 +84,16 @@ pub trait RenderBricks: Sync {
     fn voxel_color(&self, _v: Voxel) -> Option<[u8; 4]> {
         None
     }
-    /// Whether voxel `v` (any coordinates) is occupied.
-    fn occupied(&self, v: Voxel) -> bool {
-        self.contains_voxel(v) && {
-            let (w, bit) = word_bit(v);
-            self.flags(self.locate(v >> 3)).occ[w] >> bit & 1 == 1
+    /// The occupancy mask of brick `b` (any coordinates: empty outside the
+    /// grid).
+    fn occupancy_mask(&self, b: IVec3) -> BrickMask {
+        let d = self.grid_dims();
+        let inside = (0..3).all(|k| b[k] >= 0 && b[k] < (d[k] + 7) >> 3);
+        if inside {
+            self.flags(self.locate(b)).occ
+        } else {
+            [0; 8]
         }
-    }
-    /// The occupancy gradient at `v`: `Σ o / |o|²` over the occupied
-    /// neighbours `v + o` (26-neighbourhood); its negation is the smooth
-    /// normal. A voxel not on its brick's border reads the 3×3×3 block
-    /// straight from the brick's mask (three words, nine 3-bit rows).
-    fn gradient(&self, v: Voxel) -> glam::DVec3 {
-        let l = v & 7;
-        let interior =
-            self.contains_voxel(v) && l.cmpge(IVec3::ONE).all() && l.cmple(IVec3::splat(6)).all();
-        let mut g = glam::DVec3::ZERO;
-        if interior {
-            let m = &self.flags(self.locate(v >> 3)).occ;
-            for dz in -1..=1i32 {
-                let word = m[(l.z + dz) as usize];
-                for dy in -1..=1i32 {
-                    let row = word >> (8 * (l.y + dy) + l.x - 1) & 7;
-                    if row == 0 {
-                        continue;
-                    }
-                    for dx in -1..=1i32 {
-                        if row >> (dx + 1) & 1 == 1 && (dx, dy, dz) != (0, 0, 0) {
-                            let o = IVec3::new(dx, dy, dz);
-                            g += o.as_dvec3() / o.length_squared() as f64;
-                        }
-                    }
-                }
-            }
-            return g;
-        }
-        for dz in -1..=1 {
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    let o = IVec3::new(dx, dy, dz);
-                    if o != IVec3::ZERO && self.occupied(v + o) {
-                        g += o.as_dvec3() / o.length_squared() as f64;
-                    }
-                }
-            }
-        }
-        g
     }
     /// Whether `v` lies in the grid.
     #[inline(always)]
@@ -435,11 +399,11 @@ impl OccupancyGrid {
         }
     }
 
-    /// The occupancy gradient at `v`: `Σ o / |o|²` over the occupied
-    /// neighbours `v + o` (26-neighbourhood); its negation is the smooth
-    /// normal.
-    pub fn occupancy_gradient(&self, v: Voxel) -> glam::DVec3 {
-        self.gradient(v)
+    /// The smooth normal at occupied voxel `v` (a plane fitted to the
+    /// occupied voxels within 3 of it, [`super::normal`]), unit length and
+    /// facing `toward` (grid space).
+    pub fn smooth_normal(&self, v: Voxel, toward: glam::DVec3) -> glam::DVec3 {
+        super::normal::Moments::around(v, |b| self.occupancy_mask(b)).normal(toward)
     }
 
     /// The proximity cloud's value at the brick of voxel `v`.
@@ -569,36 +533,6 @@ pub(crate) fn chessboard_distance(dims: [i32; 3], seed: impl Fn(usize) -> bool) 
 mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
-
-    /// The in-brick gradient equals the neighbour-by-neighbour sum.
-    #[test]
-    fn gradient_fast_path_matches_lookups() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(6);
-        let dims = [20, 19, 21];
-        let mut g = BrickGrid::new();
-        for _ in 0..2500 {
-            g.insert(IVec3::new(
-                rng.random_range(0..20),
-                rng.random_range(0..19),
-                rng.random_range(0..21),
-            ));
-        }
-        let occ = OccupancyGrid::new(&g, dims, MemoryLimit::DEFAULT).unwrap();
-        for z in 0..21 {
-            for y in 0..19 {
-                for x in 0..20 {
-                    let v = IVec3::new(x, y, z);
-                    let mut want = glam::DVec3::ZERO;
-                    for o in (0..27).map(|i| IVec3::new(i % 3 - 1, i / 3 % 3 - 1, i / 9 - 1)) {
-                        if o != IVec3::ZERO && g.contains(v + o) && occ.in_grid(v + o) {
-                            want += o.as_dvec3() / o.length_squared() as f64;
-                        }
-                    }
-                    assert!((occ.occupancy_gradient(v) - want).length() < 1e-12, "{v}");
-                }
-            }
-        }
-    }
 
     /// Proximity flags equal a brute-force one-voxel dilation, brick
     /// borders included; the proximity cloud equals brute-force Chebyshev

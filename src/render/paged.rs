@@ -599,11 +599,8 @@ impl RenderBricks for PagedOccupancy {
         self.failure()
     }
 
-    fn occupied(&self, v: Voxel) -> bool {
+    fn occupancy_mask(&self, b: IVec3) -> BrickMask {
         // Shading reads neighbours: decode their chunk, not its page.
-        self.contains_voxel(v) && {
-            let (w, bit) = super::occupancy::word_bit(v);
-            self.occupancy_of(v >> 3)[w] >> bit & 1 == 1
-        }
+        self.occupancy_of(b)
     }
 }
