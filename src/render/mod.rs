@@ -18,8 +18,9 @@
 //! [`OccupancyGrid`]) without changing a pixel; [`RenderOptions::skip`]
 //! turns it off. The hit's depth is where the continuous ray enters the hit
 //! voxel's cube (world units along the ray, `+∞` for misses); the face
-//! normal is that entry face's, the smooth normal the gradient of the
-//! occupancy around the hit. Shading: Lambert from a headlight plus ambient.
+//! normal is that entry face's, the smooth normal that of a plane fitted to
+//! the surface voxels within 3 of the hit (Gaussian weights: no staircase
+//! moiré). Shading: Lambert from a headlight plus ambient.
 //!
 //! Scalar volumes ([`render_volume`], module [`volume`]): maximum intensity
 //! projection, front-to-back compositing through a transfer function, and
