@@ -400,7 +400,7 @@ impl OccupancyGrid {
     }
 
     /// The smooth normal at occupied voxel `v` (a plane fitted to the
-    /// occupied voxels within 3 of it, [`super::normal`]), unit length and
+    /// surface voxels within 3 of it, [`super::normal`]), unit length and
     /// facing `toward` (grid space).
     pub fn smooth_normal(&self, v: Voxel, toward: glam::DVec3) -> glam::DVec3 {
         super::normal::Moments::around(v, |b| self.occupancy_mask(b)).normal(toward)
