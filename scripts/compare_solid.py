@@ -576,6 +576,7 @@ def check_winding(a):
     off = ~conservative(V, F, lat)
     n = dict(scored=0, disagreements=0, voxkit_only=0, winding_only=0, near_half=0, exact_queries=0)
     closest = np.inf  # min |w - 1/2| over the disagreements
+    farthest = 0.0  # and max: how far from a tie the worst one is
     step = max(1, (1 << 23) // (lat.dims[1] * lat.dims[2]))
     for i0 in range(0, lat.dims[0], step):
         xs = slice(i0, i0 + step)
@@ -595,9 +596,11 @@ def check_winding(a):
         n["exact_queries"] += refined
         if dis.any():
             closest = min(closest, float(np.abs(w[dis] - 0.5).min()))
+            farthest = max(farthest, float(np.abs(w[dis] - 0.5).max()))
     r = dict(mesh=str(a.check_winding), res=a.res, dims=j["dims"], triangles=len(F),
              voxkit_voxelize_ms=j["voxelize_ms"], **n,
              min_abs_w_minus_half_at_disagreements=None if np.isinf(closest) else closest,
+             max_abs_w_minus_half_at_disagreements=None if np.isinf(closest) else farthest,
              reference="exact" if a.exact else f"fast, exact within {a.margin} of 1/2",
              check_s=time.perf_counter() - t)
     print(json.dumps(r))

@@ -3,15 +3,18 @@
 //! clouds") whose far-field terms carry an upper bound of their error, so a
 //! caller can tell when an approximate value already decides `w ≥ ½`.
 //!
-//! Every node stores its area vector `N = Σ ½ (b−a)×(c−a)`, the total of its
-//! triangles' absolute areas `A`, its area-weighted centroid `p` and the
-//! radius `r` of the ball around `p` holding all its vertices. Seen from a
-//! point `q` at distance `g > 0` from the node (`g ≥ d − r`, `d = |p − q|`),
-//! the dipole term is `N·(p−q) / (4π d³)`; replacing the kernel
-//! `(x−q)/|x−q|³` at `x` by its value at `p` errs by at most `2r/g³` per unit
-//! area (the kernel's Jacobian has norm `2/|x|³`), so the term is off by at
-//! most `A·2r / (4π g³)`. Leaves are summed exactly (van Oosterom–Strackee
-//! solid angles in `f64`).
+//! Every node stores its triangles' [`Multipole`]: area vector
+//! `N = Σ ½ (b−a)×(c−a)`, first moment `M = Σ A_t (c_t − p)ᵀ` about the
+//! area-weighted centroid `p`, the radius `r` of the ball around `p`
+//! holding all its vertices, and the second moment `S₂ = Σ ∫ |x − p|² dA`.
+//! Seen from a point `q` at distance `g > 0` from the node (`g ≥ d − r`,
+//! `d = |p − q|`), the kernel `(x−q)/|x−q|³` expanded about `p` to first
+//! order gives the dipole and moment terms; the remainder is at most
+//! `3|x − p|²/g⁴` per unit area (the kernel's second derivatives are third
+//! derivatives of `1/|x|`, norm `3!/|x|⁴`), so the node's term is off by at
+//! most `3 S₂ / (4π g⁴)`: second order, where a dipole alone errs by
+//! `A·2r/(4π g³)`. Leaves are summed exactly (van Oosterom–Strackee solid
+//! angles in `f64`).
 //!
 //! Over a box, [`WindingTree::bound`] adds the box's half-diagonal times a
 //! bound of `|∇w|`: off the soup, `∇w` is the Biot–Savart field of the
@@ -23,6 +26,8 @@
 use glam::DVec3;
 
 use crate::voxelize::caps::boundary_edges;
+pub use crate::voxelize::expansion::LocalExpansion;
+use crate::voxelize::expansion::Multipole;
 use crate::voxelize::surface::{SurfaceTriangle, VOXEL_ONE};
 
 const FOUR_PI: f64 = 4.0 * std::f64::consts::PI;
@@ -175,10 +180,8 @@ pub struct Estimate {
 struct Node {
     lo: DVec3,
     hi: DVec3,
-    centre: DVec3,
-    radius: f64,
-    normal: DVec3,
-    abs_area: f64,
+    /// The node's triangles seen from afar.
+    pole: Multipole,
     start: u32,
     end: u32,
     /// Children (0 for a leaf: the root is never a child).
@@ -306,7 +309,7 @@ impl WindingTree {
 
     /// The winding number at a point: `None` only when the point lies on a
     /// triangle (closed, exact fixed-point test), where it is undefined. A
-    /// node is taken as one dipole when its distance exceeds `beta` times
+    /// node is taken as its multipole when its distance exceeds `beta` times
     /// its radius (Barnes–Hut's opening criterion; larger is more precise and
     /// slower, `f64::INFINITY` sums every triangle exactly with libm's
     /// arctangent); the error bound is rigorous for any `beta`.
@@ -334,14 +337,13 @@ impl WindingTree {
             let n = &self.nodes[stack[top] as usize];
             // Open unless d − r > β r, tested on squares (no root for the
             // nodes that are opened, most of them near the point).
-            let to = n.centre - q;
-            let d2 = to.length_squared();
-            let reach = (beta + 1.0) * n.radius;
-            if d2 > reach * reach {
-                let d = d2.sqrt();
-                let gap = d - n.radius;
-                est.value += n.normal.dot(to) / (FOUR_PI * d2 * d);
-                est.error += n.abs_area * 2.0 * n.radius / (FOUR_PI * gap * gap * gap);
+            let d2 = (n.pole.centre - q).length_squared();
+            let reach = (beta + 1.0) * n.pole.radius;
+            if d2 > reach * reach
+                && let Some((value, error)) = n.pole.at(q)
+            {
+                est.value += value;
+                est.error += error;
                 continue;
             }
             if n.left != 0 {
@@ -373,7 +375,7 @@ impl WindingTree {
 
     /// The far field of the tree over the closed box `[lo, hi]`: every node
     /// farther than `(beta + 1)(r + ρ)` from the box's centre (`r` its
-    /// radius, `ρ` the box's half-diagonal) as one dipole in a local
+    /// radius, `ρ` the box's half-diagonal) as its multipole in a local
     /// expansion about the centre ([`LocalExpansion`], with its error bound
     /// over the box), the leaves nearer than that left in
     /// [`FarField::near`] to be summed directly. `beta > 0`.
@@ -406,9 +408,9 @@ impl WindingTree {
         let mut stack: Vec<u32> = candidates.to_vec();
         while let Some(id) = stack.pop() {
             let n = &self.nodes[id as usize];
-            let reach = (beta + 1.0) * (n.radius + rho);
-            if (n.centre - c).length_squared() > reach * reach {
-                local.add_dipole(n, rho);
+            let reach = (beta + 1.0) * (n.pole.radius + rho);
+            if (n.pole.centre - c).length_squared() > reach * reach {
+                local.add_multipole(&n.pole, rho);
             } else if n.left != 0 {
                 stack.push(n.right);
                 stack.push(n.left);
@@ -464,118 +466,6 @@ impl WindingTree {
             .map(|t| solid_angle(t[0] - q, t[1] - q, t[2] - q))
             .sum::<f64>()
             / FOUR_PI
-    }
-}
-
-/// The far field of a set of tree nodes over a box, as a local (Taylor)
-/// expansion of degree 2 about the box's centre, with an upper bound of its
-/// error over the whole box: the fast multipole method's *local* expansion,
-/// built from each node's dipole ([`WindingTree`]'s module docs).
-///
-/// For a node with area vector `N`, centre `p`, radius `r` and total area
-/// `A`, seen from the box of centre `c` and radius `ρ` (half-diagonal) at
-/// `d = |p − c|`, two errors are bounded:
-/// * the dipole's, over the box: `A · 2r / (4π g³)`, `g = d − r − ρ`;
-/// * the Taylor remainder of the dipole `φ(q) = N·(p − q) / (4π |p − q|³)`
-///   after degree 2: `φ` is `|N|/4π` times a directional derivative of
-///   `1/|x|`, whose `k`-th derivative tensor has norm at most
-///   `k!/|x|^{k+1}` (Legendre polynomials are bounded by 1, and a symmetric
-///   tensor's norm is its largest value on the diagonal), so the remainder is
-///   at most `|N|/4π · 4! / (d − ρ)⁵ · ρ³ / 3! = |N| · 4ρ³ / (4π (d − ρ)⁵)`.
-///
-/// ```
-/// use glam::DVec3;
-/// use voxkit::voxelize::winding::WindingTree;
-/// // A small closed tetrahedron far from a box: its far field is 0 ± error.
-/// let v = [[256, 256, 256], [256, -256, -256], [-256, 256, -256], [-256, -256, 256]];
-/// let t = WindingTree::new(&[[v[0], v[1], v[2]], [v[0], v[3], v[1]], [v[0], v[2], v[3]], [v[1], v[3], v[2]]]);
-/// let f = t.far_field(DVec3::splat(20.0), DVec3::splat(27.0), 1.0);
-/// assert!(f.near.is_empty());
-/// assert!(f.local.eval(DVec3::splat(22.0)).abs() <= f.local.error);
-/// ```
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct LocalExpansion {
-    /// The expansion point (the box's centre).
-    pub centre: DVec3,
-    /// Value at the centre.
-    pub value: f64,
-    /// Gradient at the centre.
-    pub gradient: DVec3,
-    /// Hessian at the centre: `xx, yy, zz, xy, yz, zx`.
-    pub hessian: [f64; 6],
-    /// `|far field − eval| ≤ error` over the box it was built for.
-    pub error: f64,
-}
-
-impl LocalExpansion {
-    /// An empty expansion about `centre`.
-    pub fn new(centre: DVec3) -> Self {
-        LocalExpansion {
-            centre,
-            ..Default::default()
-        }
-    }
-
-    /// The expansion's value at `q`.
-    #[inline]
-    pub fn eval(&self, q: DVec3) -> f64 {
-        let h = q - self.centre;
-        let [xx, yy, zz, xy, yz, zx] = self.hessian;
-        let quad = h.x * (xx * h.x + 2.0 * (xy * h.y + zx * h.z))
-            + h.y * (yy * h.y + 2.0 * yz * h.z)
-            + zz * h.z * h.z;
-        self.value + self.gradient.dot(h) + 0.5 * quad
-    }
-
-    /// The same polynomial about another centre (exact algebra: a quadratic
-    /// re-expanded; the error bound is kept, so `centre` should lie in the
-    /// box the expansion was built for and the new box inside it).
-    pub fn recentred(&self, centre: DVec3) -> Self {
-        let d = centre - self.centre;
-        let [xx, yy, zz, xy, yz, zx] = self.hessian;
-        let hd = DVec3::new(
-            xx * d.x + xy * d.y + zx * d.z,
-            xy * d.x + yy * d.y + yz * d.z,
-            zx * d.x + yz * d.y + zz * d.z,
-        );
-        LocalExpansion {
-            centre,
-            value: self.value + self.gradient.dot(d) + 0.5 * hd.dot(d),
-            gradient: self.gradient + hd,
-            hessian: self.hessian,
-            error: self.error,
-        }
-    }
-
-    /// Adds the dipole `N·(p − q) / (4π |p − q|³)` of a node (centre `p`,
-    /// radius `r`, area vector `N`, total area `A`) as seen from a box of
-    /// radius `rho` about the centre, with both error terms (see the type's
-    /// docs). The caller guarantees `|p − centre| > r + rho`.
-    fn add_dipole(&mut self, n: &Node, rho: f64) {
-        let x = n.centre - self.centre;
-        let d2 = x.length_squared();
-        let d = d2.sqrt();
-        let s3 = 1.0 / (d2 * d);
-        let s5 = s3 / d2;
-        let nx = n.normal.dot(x);
-        let k = 1.0 / FOUR_PI;
-        self.value += k * nx * s3;
-        self.gradient -= k * (n.normal * s3 - x * (3.0 * nx * s5));
-        let a = -3.0 * s5;
-        let b = 15.0 * nx * s5 / d2;
-        let h = |i: usize, j: usize| {
-            let delta = if i == j { nx } else { 0.0 };
-            k * (a * (n.normal[i] * x[j] + n.normal[j] * x[i] + delta) + b * x[i] * x[j])
-        };
-        let hess = [h(0, 0), h(1, 1), h(2, 2), h(0, 1), h(1, 2), h(2, 0)];
-        for (s, v) in self.hessian.iter_mut().zip(hess) {
-            *s += v;
-        }
-        let g = d - n.radius - rho;
-        let gr = d - rho;
-        self.error += k
-            * (n.abs_area * 2.0 * n.radius / (g * g * g)
-                + n.normal.length() * 4.0 * rho * rho * rho / (gr * gr * gr * gr * gr));
     }
 }
 
@@ -715,38 +605,18 @@ fn build(
     centroids: &[DVec3],
 ) -> u32 {
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    let (mut normal, mut abs_area, mut weighted) = (DVec3::ZERO, 0.0, DVec3::ZERO);
     for &i in order.iter() {
-        let t = &tris[i as usize];
-        for p in t {
+        for p in &tris[i as usize] {
             lo = lo.min(*p);
             hi = hi.max(*p);
         }
-        let n = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]);
-        let a = n.length();
-        normal += n;
-        abs_area += a;
-        weighted += a * centroids[i as usize];
     }
-    let centre = if abs_area > 0.0 {
-        weighted / abs_area
-    } else {
-        (lo + hi) * 0.5
-    };
-    let mut radius: f64 = 0.0;
-    for &i in order.iter() {
-        for p in &tris[i as usize] {
-            radius = radius.max((*p - centre).length());
-        }
-    }
+    let pole = Multipole::of(order.iter().map(|&i| tris[i as usize]));
     let me = nodes.len();
     nodes.push(Node {
         lo,
         hi,
-        centre,
-        radius: radius * (1.0 + 1e-12),
-        normal,
-        abs_area,
+        pole,
         start: start as u32,
         end: (start + order.len()) as u32,
         left: 0,
@@ -1055,10 +925,11 @@ mod tests {
             )
             .normalize_or(DVec3::Y);
             // The box's ball outside the root's ball by a relative hair to 50%.
-            let gap = (root.radius + rho) * [1e-6, 1e-3, 0.05, 0.5][rng.random_range(0..4)];
-            let c = root.centre + dir * (root.radius + rho + gap);
+            let (centre, radius) = (root.pole.centre, root.pole.radius);
+            let gap = (radius + rho) * [1e-6, 1e-3, 0.05, 0.5][rng.random_range(0..4)];
+            let c = centre + dir * (radius + rho + gap);
             let (lo, hi) = (c - DVec3::splat(half), c + DVec3::splat(half));
-            let f = tree.far_field(lo, hi, gap / (root.radius + rho) * 0.999);
+            let f = tree.far_field(lo, hi, gap / (radius + rho) * 0.999);
             assert!(f.near.is_empty(), "the root is expanded");
             for _ in 0..10 {
                 let q = lo + (hi - lo) * DVec3::new(rng.random(), rng.random(), rng.random());
