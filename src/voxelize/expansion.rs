@@ -10,7 +10,7 @@
 //! `O(A r/g³)`, so a given bound comes at a smaller opening ratio, with fewer
 //! triangles left to sum one by one.
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 const FOUR_PI: f64 = 4.0 * std::f64::consts::PI;
 
@@ -110,13 +110,9 @@ impl LocalExpansion {
         let n = m.normal;
         let ny = n.dot(y);
         let s = m.moment;
-        let sy = DVec3::new(
-            s[0] * y.x + s[3] * y.y + s[5] * y.z,
-            s[3] * y.x + s[1] * y.y + s[4] * y.z,
-            s[5] * y.x + s[4] * y.y + s[2] * y.z,
-        );
+        let sy = s * y;
         let ysy = y.dot(sy);
-        let tr = s[0] + s[1] + s[2];
+        let tr = m.moment_trace();
         let k = 1.0 / FOUR_PI;
         // w ≈ −k (N_j ∂_j φ + S_jk ∂_jk φ)(y), φ = 1/|y|, y = p − q;
         // ∂/∂q = −∂/∂y.
@@ -125,14 +121,7 @@ impl LocalExpansion {
             * (3.0 * ny * s5 * y - n * s3 - 15.0 * ysy * s7 * y + (tr * y + 2.0 * sy) * (3.0 * s5));
         let h = |i: usize, j: usize| {
             let delta = if i == j { 1.0 } else { 0.0 };
-            let sij = match (i, j) {
-                (0, 0) => s[0],
-                (1, 1) => s[1],
-                (2, 2) => s[2],
-                (0, 1) | (1, 0) => s[3],
-                (1, 2) | (2, 1) => s[4],
-                _ => s[5],
-            };
+            let sij = s.col(j)[i];
             // N_j ∂_jij φ and S_jk ∂_jkij φ.
             let d3 =
                 -15.0 * ny * y[i] * y[j] * s7 + 3.0 * (n[i] * y[j] + n[j] * y[i] + delta * ny) * s5;
@@ -178,8 +167,8 @@ pub struct Multipole {
     pub normal: DVec3,
     /// Total absolute area.
     pub abs_area: f64,
-    /// Symmetric part of `M`: `xx, yy, zz, xy, yz, zx`.
-    pub moment: [f64; 6],
+    /// Symmetric part of `M`.
+    pub moment: DMat3,
     /// `M₁ = Σ_t |A_t| |c_t − p|` (bounds the nuclear norm of `M`).
     pub first: f64,
     /// `S₂ = Σ_t ∫_t |x − p|² dA`.
@@ -209,7 +198,7 @@ impl Multipole {
             (lo + hi) * 0.5
         };
         let (mut radius, mut first, mut second) = (0.0f64, 0.0, 0.0);
-        let mut m = [[0.0; 3]; 3];
+        let mut m = DMat3::ZERO;
         for t in tris {
             let u = t.map(|p| p - centre);
             for p in u {
@@ -218,11 +207,8 @@ impl Multipole {
             let n = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]);
             let a = n.length();
             let c = (u[0] + u[1] + u[2]) / 3.0;
-            for (i, row) in m.iter_mut().enumerate() {
-                for (j, v) in row.iter_mut().enumerate() {
-                    *v += n[i] * c[j];
-                }
-            }
+            // n cᵀ: column j is n c_j.
+            m += DMat3::from_cols(n * c.x, n * c.y, n * c.z);
             first += a * c.length();
             // ∫_t x xᵀ dA = A/12 (Σ u uᵀ + (Σ u)(Σ u)ᵀ), traced.
             let su = u[0] + u[1] + u[2];
@@ -232,24 +218,21 @@ impl Multipole {
                     + u[2].length_squared()
                     + su.length_squared());
         }
-        let sym = |i: usize, j: usize| 0.5 * (m[i][j] + m[j][i]);
         Multipole {
             centre,
             // Rounding of the corners' distances must not shrink the ball.
             radius: radius * (1.0 + 1e-12),
             normal,
             abs_area,
-            moment: [
-                sym(0, 0),
-                sym(1, 1),
-                sym(2, 2),
-                sym(0, 1),
-                sym(1, 2),
-                sym(2, 0),
-            ],
+            moment: (m + m.transpose()) * 0.5,
             first,
             second: second * (1.0 + 1e-12),
         }
+    }
+
+    /// `tr S`, the moment's trace.
+    fn moment_trace(&self) -> f64 {
+        self.moment.x_axis.x + self.moment.y_axis.y + self.moment.z_axis.z
     }
 
     /// The multipole's value at `q` and the bound of its truncation error
@@ -263,14 +246,9 @@ impl Multipole {
             return None;
         }
         let s3 = 1.0 / (r2 * r);
-        let s = self.moment;
-        let sy = DVec3::new(
-            s[0] * y.x + s[3] * y.y + s[5] * y.z,
-            s[3] * y.x + s[1] * y.y + s[4] * y.z,
-            s[5] * y.x + s[4] * y.y + s[2] * y.z,
-        );
-        let tr = s[0] + s[1] + s[2];
-        let value = (self.normal.dot(y) * s3 - (3.0 * y.dot(sy) / r2 - tr) * s3) / FOUR_PI;
+        let ysy = y.dot(self.moment * y);
+        let value =
+            (self.normal.dot(y) * s3 - (3.0 * ysy / r2 - self.moment_trace()) * s3) / FOUR_PI;
         Some((value, 3.0 * self.second / (FOUR_PI * g * g * g * g)))
     }
 }
@@ -370,8 +348,6 @@ mod tests {
         let b = Multipole::of(tris.iter().rev().copied());
         assert!((a.centre - b.centre).length() < 1e-12);
         assert!((a.second - b.second).abs() < 1e-9 * a.second);
-        for k in 0..6 {
-            assert!((a.moment[k] - b.moment[k]).abs() < 1e-9 * (1.0 + a.first));
-        }
+        assert!(a.moment.abs_diff_eq(b.moment, 1e-9 * (1.0 + a.first)));
     }
 }
