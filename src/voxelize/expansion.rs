@@ -94,7 +94,8 @@ impl LocalExpansion {
     /// Adds a node's multipole (dipole and first-moment term, see
     /// [`Multipole`]) as seen from a box of radius `rho` about the centre,
     /// with its three error terms over the box: the multipole's truncation
-    /// `3 S₂ / (4π g⁴)` (`g = d − r − ρ`), and the degree-2 Taylor
+    /// ([`Multipole::truncation`] at the box's nearest distance `d − ρ`),
+    /// and the degree-2 Taylor
     /// remainders of its dipole part `4|N| ρ³ / (4π (d − ρ)⁵)` and of its
     /// moment part `20 M₁ ρ³ / (4π (d − ρ)⁶)` (derivatives of `1/|x|` of
     /// order `k` have norm at most `k!/|x|^{k+1}`). The caller guarantees
@@ -136,12 +137,11 @@ impl LocalExpansion {
         for (acc, v) in self.hessian.iter_mut().zip(hess) {
             *acc += v;
         }
-        let g = r - m.radius - rho;
         let gr = r - rho;
         let rho3 = rho * rho * rho;
         let gr5 = gr * gr * gr * gr * gr;
         self.error += k
-            * (3.0 * m.second / (g * g * g * g)
+            * (m.truncation(gr)
                 + n.length() * 4.0 * rho3 / gr5
                 + 20.0 * m.first * rho3 / (gr5 * gr));
     }
@@ -154,9 +154,10 @@ impl LocalExpansion {
 /// in `x` about `p` to first order gives the dipole `N = Σ_t A_t` (area
 /// vectors) and the moment `M = Σ_t A_t (c_t − p)ᵀ` (`c_t` the centroids:
 /// exact, the integrand being linear), of which only the symmetric part
-/// counts. The remainder is at most `3 |x − p|² / g⁴` per unit area (the
-/// kernel's second derivatives are third derivatives of `1/|x|`), so the
-/// truncation error is `3 S₂ / (4π g⁴)` with `S₂ = Σ_t ∫_t |x − p|² dA`.
+/// counts. Summing the rest of the Taylor series, the truncation error at
+/// distance `D` from `p` is at most `S₂ (3 − 2t)/(4π (1 − t)² D⁴)`,
+/// `t = r / D`, with `S₂ = Σ_t ∫_t |x − p|² dA` ([`Multipole::truncation`]):
+/// `O(A r²/D⁴)`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Multipole {
     /// Expansion point `p` (the area-weighted centroid).
@@ -249,7 +250,30 @@ impl Multipole {
         let ysy = y.dot(self.moment * y);
         let value =
             (self.normal.dot(y) * s3 - (3.0 * ysy / r2 - self.moment_trace()) * s3) / FOUR_PI;
-        Some((value, 3.0 * self.second / (FOUR_PI * g * g * g * g)))
+        Some((value, self.truncation(r) / FOUR_PI))
+    }
+
+    /// `4π` times the bound of the truncation error at every point at least
+    /// `dist > radius` from the centre: `S₂ (3 − 2t) / ((1 − t)² D⁴)`,
+    /// `t = radius / D`, `D = dist`.
+    ///
+    /// Why: with `y = p − q` and `h = x − p`, the Taylor series of
+    /// `1/|y + h|` in `h` has homogeneous terms `H_l(h) = D^l φ(y)[h^l]/l!`
+    /// (`φ = 1/|·|`), and the kernel `n·∇_h` of the first two (`l = 1, 2`)
+    /// is what the dipole and moment sum. The rest is
+    /// `Σ_{l≥3} D^l φ(y)[n, h^{l−1}]/(l−1)!`, and since the symmetric tensor
+    /// `D^l φ(y)` has norm `l!/|y|^{l+1}` (its largest directional
+    /// derivative, `l! P_l / |y|^{l+1}` with `|P_l| ≤ 1`), each term is at
+    /// most `l |h|^{l−1} / D^{l+1}`. Summed, `Σ_{l≥3} l t^{l−1}
+    /// = t² (3 − 2t)/(1 − t)²` with `t = |h|/D < 1`; over the cluster,
+    /// `(3 − 2t)/(1 − t)²` grows with `|h| ≤ radius`, so the integral is at
+    /// most `S₂ (3 − 2t)/((1 − t)² D⁴)`. The plain Lagrange remainder,
+    /// `3 S₂ / (D − radius)⁴`, is `3 / ((3 − 2t)(1 − t)²)` times larger:
+    /// 2.1× at `t = ¼`, 3.8× at `t = 0.4`.
+    pub fn truncation(&self, dist: f64) -> f64 {
+        let t = self.radius / dist;
+        let d2 = dist * dist;
+        self.second * (3.0 - 2.0 * t) / ((1.0 - t) * (1.0 - t) * d2 * d2)
     }
 }
 

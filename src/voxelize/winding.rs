@@ -7,13 +7,12 @@
 //! `N = Σ ½ (b−a)×(c−a)`, first moment `M = Σ A_t (c_t − p)ᵀ` about the
 //! area-weighted centroid `p`, the radius `r` of the ball around `p`
 //! holding all its vertices, and the second moment `S₂ = Σ ∫ |x − p|² dA`.
-//! Seen from a point `q` at distance `g > 0` from the node (`g ≥ d − r`,
-//! `d = |p − q|`), the kernel `(x−q)/|x−q|³` expanded about `p` to first
-//! order gives the dipole and moment terms; the remainder is at most
-//! `3|x − p|²/g⁴` per unit area (the kernel's second derivatives are third
-//! derivatives of `1/|x|`, norm `3!/|x|⁴`), so the node's term is off by at
-//! most `3 S₂ / (4π g⁴)`: second order, where a dipole alone errs by
-//! `A·2r/(4π g³)`. Leaves are summed exactly (van Oosterom–Strackee solid
+//! Seen from a point `q` at distance `d = |p − q| > r`, the kernel
+//! `(x−q)/|x−q|³` expanded about `p` to first order gives the dipole and
+//! moment terms; the rest of its Taylor series sums to at most
+//! `S₂ (3 − 2t)/(4π (1 − t)² d⁴)`, `t = r/d` (derivatives of `1/|x|` of
+//! order `l` have norm `l!/|x|^{l+1}`; [`Multipole::truncation`]): second
+//! order, where a dipole alone errs by `A·2r/(4π g³)`. Leaves are summed exactly (van Oosterom–Strackee solid
 //! angles in `f64`).
 //!
 //! Over a box, [`WindingTree::bound`] adds the box's half-diagonal times a
