@@ -57,7 +57,7 @@ use crate::voxelize::fill::{
 };
 use crate::voxelize::surface::{SurfaceTriangle, VOXEL_ONE};
 use crate::voxelize::winding::{
-    Estimate, FAST_ATAN2_ERROR, LANES, LocalExpansion, ROUNDING_SLACK, WindingTree,
+    Estimate, FAST_ATAN2_ERROR, LANES, LocalExpansion, NearNodes, ROUNDING_SLACK, WindingTree,
 };
 
 /// A centre is inside when its winding number is at least this.
@@ -384,12 +384,19 @@ pub type BrickProgress<'a> = dyn Fn(u64, u64) + Sync + 'a;
 
 /// Opening ratios of the refined bricks' far field (node accepted when
 /// farther than `(β + 1)(r + ρ)` from the box centre), tried in turn until
-/// the far field's error bound over the brick is below [`AMBIGUITY_BAND`]:
+/// the far field's error bound over the brick is below [`LADDER_BAND`]:
 /// small first, so that the near field summed in lanes stays short where
 /// caps are small; larger where they are large, so that few centres are
-/// left straddling ½ (Spot at `-r 128` with 20% of its triangles deleted:
-/// 229k straddling centres at 1.5 alone, 6k with the ladder).
-const BRICK_BETAS: [f64; 4] = [1.5, 2.0, 2.5, 3.0];
+/// left straddling ½. Chosen by measurement (docs/performance-notes.md,
+/// issue 22, step 5): starting at 0.75 instead of 1.5 took the bunny with
+/// 5% of its triangles deleted from 490 to 400 ms at `-r 128`.
+const BRICK_BETAS: [f64; 6] = [0.75, 1.0, 1.5, 2.0, 2.5, 3.0];
+
+/// The brick ladder stops once the far field's bound is below this: a
+/// looser bound leaves the centres within it of ½ to the costlier cube by
+/// cube path (the bunny with 40% deleted at `-r 128`: 275k straddling
+/// centres at 0.1, 10k at 0.05).
+const LADDER_BAND: f64 = 0.05;
 
 /// Voxels whose winding number lies within this of ½ are counted as
 /// ambiguous ([`SolidStats::ambiguous`]): their verdict hangs on how the
@@ -820,13 +827,13 @@ impl BrickRefiner for Classifier<'_> {
         // and a longer near list in lanes costs less than deciding them
         // cube by cube.
         let mut bb = BRICK_BETAS[0];
-        let mut far = self.caps.far_field(blo, bhi, bb);
+        let mut far = self.caps.far_field_keeping(blo, bhi, bb, NearNodes::Coarse);
         for &beta in &BRICK_BETAS[1..] {
-            if far.local.error <= AMBIGUITY_BAND {
+            if far.local.error <= LADDER_BAND {
                 break;
             }
             bb = beta;
-            far = self.caps.far_field(blo, bhi, bb);
+            far = self.caps.far_field_keeping(blo, bhi, bb, NearNodes::Coarse);
         }
         let (mut near1, mut near2) = (Vec::new(), Vec::new());
         let mut cubes = Vec::with_capacity(64);
@@ -837,8 +844,15 @@ impl BrickRefiner for Classifier<'_> {
             };
             let mut l1 = far.local.recentred((b1lo + b1hi) * 0.5);
             near1.clear();
-            self.caps
-                .split(&far.near, b1lo, b1hi, bb, &mut l1, &mut near1);
+            self.caps.split(
+                &far.near,
+                b1lo,
+                b1hi,
+                bb,
+                NearNodes::Coarse,
+                &mut l1,
+                &mut near1,
+            );
             for g in 0..8 {
                 let lo2 = lo1 + Voxel::new(g & 1, (g >> 1) & 1, g >> 2) * 2;
                 let Some((b2lo, b2hi)) = centre_box(lo2, 2, self.dims) else {
@@ -846,7 +860,15 @@ impl BrickRefiner for Classifier<'_> {
                 };
                 let mut l2 = l1.recentred((b2lo + b2hi) * 0.5);
                 let start = near2.len();
-                self.caps.split(&near1, b2lo, b2hi, bb, &mut l2, &mut near2);
+                self.caps.split(
+                    &near1,
+                    b2lo,
+                    b2hi,
+                    bb,
+                    NearNodes::Leaves,
+                    &mut l2,
+                    &mut near2,
+                );
                 cubes.push((lo2, l2, start..near2.len()));
             }
         }

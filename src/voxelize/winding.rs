@@ -379,25 +379,34 @@ impl WindingTree {
     /// over the box), the leaves nearer than that left in
     /// [`FarField::near`] to be summed directly. `beta > 0`.
     pub fn far_field(&self, lo: DVec3, hi: DVec3, beta: f64) -> FarField {
+        self.far_field_keeping(lo, hi, beta, NearNodes::Leaves)
+    }
+
+    /// [`WindingTree::far_field`] with the near list as `keep` says: for a
+    /// box that will be split into sub-boxes, [`NearNodes::Coarse`].
+    pub fn far_field_keeping(&self, lo: DVec3, hi: DVec3, beta: f64, keep: NearNodes) -> FarField {
         let mut f = FarField {
             local: LocalExpansion::new((lo + hi) * 0.5),
             near: Vec::new(),
         };
         if !self.nodes.is_empty() {
-            self.split(&[0], lo, hi, beta, &mut f.local, &mut f.near);
+            self.split(&[0], lo, hi, beta, keep, &mut f.local, &mut f.near);
         }
         f
     }
 
     /// [`WindingTree::far_field`] over a box inside the one `candidates`
     /// came from: far candidates go into `local` (about the box's centre),
-    /// near inner nodes are opened, near leaves pushed onto `near`.
+    /// near inner nodes are opened (or kept, as `keep` says), the rest
+    /// pushed onto `near`.
+    #[allow(clippy::too_many_arguments)]
     pub fn split(
         &self,
         candidates: &[u32],
         lo: DVec3,
         hi: DVec3,
         beta: f64,
+        keep: NearNodes,
         local: &mut LocalExpansion,
         near: &mut Vec<u32>,
     ) {
@@ -410,7 +419,7 @@ impl WindingTree {
             let reach = (beta + 1.0) * (n.pole.radius + rho);
             if (n.pole.centre - c).length_squared() > reach * reach {
                 local.add_multipole(&n.pole, rho);
-            } else if n.left != 0 {
+            } else if n.left != 0 && (keep == NearNodes::Leaves || n.pole.radius > rho) {
                 stack.push(n.right);
                 stack.push(n.left);
             } else {
@@ -419,7 +428,8 @@ impl WindingTree {
         }
     }
 
-    /// The triangles of leaf `node` (as returned in [`FarField::near`]).
+    /// The triangles of `node` (as returned in [`FarField::near`]): a leaf's,
+    /// or all of an inner node's leaves'.
     pub fn leaf_triangles(&self, node: u32) -> &[[DVec3; 3]] {
         let n = &self.nodes[node as usize];
         &self.tris[n.start as usize..n.end as usize]
@@ -466,6 +476,19 @@ impl WindingTree {
             .sum::<f64>()
             / FOUR_PI
     }
+}
+
+/// What [`WindingTree::split`] leaves in its near list.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NearNodes {
+    /// Leaves only: the list is to be summed ([`WindingTree::near_lanes`]).
+    Leaves,
+    /// Near inner nodes no wider than the box stay whole, for the box's
+    /// sub-boxes to split (the dual-tree rule: of a near pair, open the
+    /// larger). A node that a sub-box finds far then enters its expansion as
+    /// one multipole, not as its leaves one by one. The list can still be
+    /// summed directly: a node's triangles are its leaves' triangles.
+    Coarse,
 }
 
 /// [`WindingTree::far_field`]: the far field over a box and the leaves left
