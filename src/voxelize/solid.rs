@@ -822,7 +822,7 @@ impl BrickRefiner for Classifier<'_> {
         };
         let t = std::time::Instant::now();
         // The opening ratio grows until the far field's bound over the brick
-        // is below the ambiguity band: where caps are large (holes
+        // is below [`LADDER_BAND`]: where caps are large (holes
         // everywhere) a looser bound would leave most centres straddling ½,
         // and a longer near list in lanes costs less than deciding them
         // cube by cube.
