@@ -57,7 +57,7 @@ use crate::voxelize::fill::{
 };
 use crate::voxelize::surface::{SurfaceTriangle, VOXEL_ONE};
 use crate::voxelize::winding::{
-    Estimate, FAST_ATAN2_ERROR, LANES, LocalExpansion, NearNodes, ROUNDING_SLACK, WindingTree,
+    Estimate, LANES, LocalExpansion, NearLanes, NearNodes, ROUNDING_SLACK, WindingTree,
 };
 
 /// A centre is inside when its winding number is at least this.
@@ -560,7 +560,8 @@ pub fn solid_interior_in(
             } else {
                 let ctx = Classifier {
                     caps: WindingTree::new(&caps),
-                    mesh: WindingTree::new(triangles),
+                    triangles,
+                    mesh: std::sync::OnceLock::new(),
                     dims,
                     surface,
                     region,
@@ -670,7 +671,10 @@ struct Classifier<'a> {
     caps: WindingTree,
     /// The mesh `S` itself: it decides centres lying exactly on a cap (its
     /// winding number is continuous across the caps).
-    mesh: WindingTree,
+    mesh: std::sync::OnceLock<WindingTree>,
+    /// `S`'s triangles, for `mesh`: built on first use (few meshes have a
+    /// centre on a cap, and the tree over a large mesh costs tens of ms).
+    triangles: &'a [SurfaceTriangle],
     dims: Dims,
     surface: &'a BrickGrid,
     /// Only boxes meeting this region are classified (see
@@ -714,7 +718,8 @@ impl Classifier<'_> {
         // On the mesh itself the voxel is a surface voxel: solid either way.
         let mut last = 1.0;
         for beta in BETAS {
-            match self.mesh.point(q, beta) {
+            let mesh = self.mesh.get_or_init(|| WindingTree::new(self.triangles));
+            match mesh.point(q, beta) {
                 Some(e) if (e.value - 0.5).abs() > e.error => return e.value,
                 Some(e) => last = e.value,
                 None => return 1.0,
@@ -1033,7 +1038,7 @@ impl Classifier<'_> {
     }
 
     /// Decides the open lanes of `cube` from a far field `local` and a near
-    /// sum `(sum, flat, count)` ([`WindingTree::near_lanes`]): lanes the
+    /// sum ([`WindingTree::near_lanes`]): lanes the
     /// bound decides are set, lanes that may lie in a cap's plane go to
     /// `out.slow`; returns the cube with the lanes still open and their
     /// estimates.
@@ -1043,13 +1048,10 @@ impl Classifier<'_> {
         cube: Straddling,
         m: &[Option<i32>; 512],
         local: &LocalExpansion,
-        (sum, flat, count): ([f64; LANES], [bool; LANES], usize),
+        near: NearLanes,
         out: &mut BrickOut,
     ) -> Straddling {
         let (slots, q) = cube_lanes(brick_lo, cube.lo2);
-        let error = local.error
-            + count as f64 * (2.0 * FAST_ATAN2_ERROR / (4.0 * std::f64::consts::PI))
-            + ROUNDING_SLACK;
         let mut rest = Straddling {
             open: [false; LANES],
             ..cube
@@ -1059,8 +1061,9 @@ impl Classifier<'_> {
                 continue;
             }
             let Some(mv) = m[slots[k]] else { continue };
-            let w = mv as f64 + local.eval(q[k]) + sum[k];
-            if flat[k] {
+            let w = mv as f64 + local.eval(q[k]) + near.sum[k];
+            let error = local.error + near.error[k] + ROUNDING_SLACK;
+            if near.flat[k] {
                 out.slow.push((slots[k], mv));
             } else if (w - 0.5).abs() > error {
                 self.set(brick_lo, slots[k], w, out);
