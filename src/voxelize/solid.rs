@@ -716,9 +716,9 @@ impl Classifier<'_> {
     /// The mesh's own winding number at a centre (1 on the mesh itself).
     fn mesh_winding(&self, q: DVec3) -> f64 {
         // On the mesh itself the voxel is a surface voxel: solid either way.
+        let mesh = self.mesh.get_or_init(|| WindingTree::new(self.triangles));
         let mut last = 1.0;
         for beta in BETAS {
-            let mesh = self.mesh.get_or_init(|| WindingTree::new(self.triangles));
             match mesh.point(q, beta) {
                 Some(e) if (e.value - 0.5).abs() > e.error => return e.value,
                 Some(e) => last = e.value,

@@ -109,10 +109,9 @@ const U32: f64 = f32::EPSILON as f64 / 2.0;
 /// lanes' offsets `p` from the origin are exact, `|p| ≤ 2s`): the vertices
 /// relative to the origin, rounded to `f32` (off by `u(|a| + |p|)`), and
 /// their differences with `p` (off by `u|a|` more) are off by
-/// `|ε| ≤ 2.01u(|a| + s)` per vector; that
-/// moves the triple product by at most `6.1uΠ` and the denominator (four
-/// terms, each moved by at most `|ε|` times the other two lengths per
-/// perturbed vector) by `24.1uΠ`; evaluating them in `f32` adds at most
+/// `|ε| ≤ 2.01u(|a| + s)` per vector; that moves the triple product by at
+/// most `6.1uΠ` and the denominator (four terms, each moved by at most `|ε|`
+/// times the other two lengths per perturbed vector) by `24.1uΠ`; evaluating them in `f32` adds at most
 /// `γ₅·3√3 ≤ 26.1u` and `41u` times `|a||b||c|` (lengths to 2.5u, each dot
 /// product to `γ₃`, three additions of terms below `4|a||b||c|`). Sum
 /// `97.3u`: 128 leaves a margin. Guarded by
@@ -121,8 +120,9 @@ const NEAR_ROUNDING: f32 = 128.0 * f32::EPSILON / 2.0;
 
 /// The near-field kernel in `f32`: `Σ_t Ω_t(p_i)` (van Oosterom–Strackee
 /// with the [`fast_atan2`] polynomial) over `tris` (vertices relative to an
-/// origin) for [`LANES`] points `p` (offsets from it), added to `acc`; `err` gathers `E/max(|num|, |den|)` per triangle
-/// ([`NEAR_ROUNDING`]): the angle `atan2(num, den)` is then off by at most
+/// origin) for [`LANES`] points `p` (offsets from it), added to `acc`;
+/// `err` gathers `E/max(|num|, |den|)` per triangle ([`NEAR_ROUNDING`]):
+/// the angle `atan2(num, den)` is then off by at most
 /// `π/2` times that from rounding, once `(den, num)` is known to stay off
 /// atan2's cut at ±π (`|num| > E` or `den > E`). Where it is not (the point
 /// may lie in the triangle's plane, inside it, where `Ω` jumps by `4π`
@@ -206,8 +206,9 @@ pub struct NearLanes {
     pub sum: [f64; LANES],
     /// `|true − sum| ≤ error` where `flat` is not set.
     pub error: [f64; LANES],
-    /// The point may lie in a triangle's plane: `sum` is not to be trusted
-    /// (on the triangle it is undefined), and an exact test must say.
+    /// The point may lie in a triangle's plane, inside it: `sum` is not to
+    /// be trusted (on the triangle it is undefined), and an exact test must
+    /// say.
     pub flat: [bool; LANES],
     /// Triangles summed.
     pub count: usize,
