@@ -892,9 +892,17 @@ impl BrickRefiner for Classifier<'_> {
         for cube in std::mem::take(&mut out.pending) {
             self.straddling_cube(lo, bb, cube, m, &mut out);
         }
-        for (i, mv) in std::mem::take(&mut out.slow) {
+        for (i, mv, tried) in std::mem::take(&mut out.slow) {
             let q = (lo + slot_voxel(i)).as_dvec3();
-            let w = match self.cap_point(q) {
+            // Centres whose lanes ran through the point path's ratios go
+            // straight to the exact sum; the rest (maybe on a cap's plane)
+            // take the point path from its first ratio.
+            let cap = if tried {
+                self.caps_point(q, f64::INFINITY).map(|e| e.value)
+            } else {
+                self.cap_point(q)
+            };
+            let w = match cap {
                 Some(v) => mv as f64 + v,
                 None => self.mesh_winding(q),
             };
@@ -924,8 +932,9 @@ struct BrickOut {
     mask: BrickMask,
     /// Centres counted in [`SolidStats::ambiguous`].
     ambiguous: u64,
-    /// Centres for the per-point path: (slot, line value).
-    slow: Vec<(usize, i32)>,
+    /// Centres for the per-point path: (slot, line value, whether the
+    /// point path's opening ratios were tried in lanes already).
+    slow: Vec<(usize, i32, bool)>,
     /// 2³ cubes with centres the brick's bound left undecided.
     pending: Vec<Straddling>,
 }
@@ -1030,7 +1039,7 @@ impl Classifier<'_> {
             }
             let Some(mv) = m[slots[k]] else { continue };
             if self.caps.len() <= EXACT_CAPS {
-                out.slow.push((slots[k], mv));
+                out.slow.push((slots[k], mv, true));
             } else {
                 self.set(brick_lo, slots[k], cube.last[k], out);
             }
@@ -1064,7 +1073,7 @@ impl Classifier<'_> {
             let w = mv as f64 + local.eval(q[k]) + near.sum[k];
             let error = local.error + near.error[k] + ROUNDING_SLACK;
             if near.flat[k] {
-                out.slow.push((slots[k], mv));
+                out.slow.push((slots[k], mv, false));
             } else if (w - 0.5).abs() > error {
                 self.set(brick_lo, slots[k], w, out);
             } else {

@@ -136,7 +136,14 @@ fn near_kernel(
     err: &mut [f32; LANES],
     flat: &mut [bool; LANES],
 ) {
-    for t in tris {
+    // Two passes: the arctangent's chain (a division, then a polynomial) is
+    // long, and one triangle after another it left the core waiting; with
+    // every numerator and denominator known first, the chains of
+    // different triangles overlap. The arithmetic per lane is unchanged.
+    let mut num = [[0.0f32; LANES]; CHUNK];
+    let mut den = [[0.0f32; LANES]; CHUNK];
+    let mut bound = [[0.0f32; LANES]; CHUNK];
+    for (j, t) in tris.iter().enumerate().take(CHUNK) {
         for i in 0..LANES {
             let a = [t[0][0] - p[0][i], t[0][1] - p[1][i], t[0][2] - p[2][i]];
             let b = [t[1][0] - p[0][i], t[1][1] - p[1][i], t[1][2] - p[2][i]];
@@ -148,10 +155,15 @@ fn near_kernel(
                 b[2] * c[0] - b[0] * c[2],
                 b[0] * c[1] - b[1] * c[0],
             ];
-            let num = dot(a, bxc);
+            num[j][i] = dot(a, bxc);
             let abc = la * lb * lc;
-            let den = abc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
-            let bound = NEAR_ROUNDING * ((la + s) * (lb + s) * (lc + s));
+            den[j][i] = abc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
+            bound[j][i] = NEAR_ROUNDING * ((la + s) * (lb + s) * (lc + s));
+        }
+    }
+    for j in 0..tris.len().min(CHUNK) {
+        for i in 0..LANES {
+            let (num, den, bound) = (num[j][i], den[j][i], bound[j][i]);
             acc[i] += 2.0 * atan2_f32(num, den);
             // The same reciprocal as the arctangent's (one division).
             err[i] += bound * (1.0 / num.abs().max(den.abs()));
@@ -161,6 +173,9 @@ fn near_kernel(
         }
     }
 }
+
+/// Triangles per call of [`near_kernel`].
+const CHUNK: usize = 8;
 
 /// `atan2(y, x)` in `f32` by octant reduction and the [`fast_atan2`]
 /// polynomial, without branches (selects), so that lanes vectorise: within
@@ -516,7 +531,7 @@ impl WindingTree {
         let mut err = [0.0; LANES];
         let mut flat = [false; LANES];
         let mut count = 0;
-        let mut chunk = [[[0.0f32; 3]; 3]; 8];
+        let mut chunk = [[[0.0f32; 3]; 3]; CHUNK];
         #[cfg(target_arch = "x86_64")]
         let avx2 = std::arch::is_x86_feature_detected!("avx2");
         for &id in near {
