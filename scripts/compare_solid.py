@@ -14,7 +14,7 @@ usage (from the repository root, with the peers' virtualenv, see
     # the speed table (issue 22): voxkit against libigl, interleaved rounds
     ../shared/peers/.venv/bin/python scripts/compare_solid.py --speed \
         [--rounds 3] [--fractions 5 20 40] [--res 128 256] [--scanned-res 512 1024] [--voxkit BIN]
-        [--baseline OLD_BIN]
+        [--baseline OLD_BIN] [--meshes spot bunny | PATH.obj ...] [--subdivide N]
 
     # the correctness check: voxkit solid against the winding number, one mesh
     ../shared/peers/.venv/bin/python scripts/compare_solid.py \
@@ -191,6 +191,19 @@ def closed_mesh(name):
     if left:
         raise SystemExit(f"{name}: {left} boundary edges left after closing holes")
     return V, F, nb
+
+
+def subdivide(V, F):
+    """Every triangle split 1-to-4 at its edge midpoints (shared midpoints
+    shared): the same surface with four times the triangles, still closed."""
+    edges = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    uniq, inv = np.unique(edges, axis=0, return_inverse=True)
+    mids = len(V) + inv.reshape(3, -1).T  # per triangle: midpoints of edges 01, 12, 20
+    V2 = np.concatenate([V, (V[uniq[:, 0]] + V[uniq[:, 1]]) / 2])
+    a, b, c = F.T
+    ab, bc, ca = mids.T
+    F2 = np.concatenate([np.stack(t, axis=1) for t in ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))])
+    return V2, F2
 
 
 def protected_triangles(V, F):
@@ -481,16 +494,21 @@ def speed(a):
     tmp = Path(a.keep or tempfile.mkdtemp())
     tmp.mkdir(parents=True, exist_ok=True)
     cases = []
-    for name in ["spot", "bunny"]:
+    for name in a.meshes:
         V, Fc, _ = closed_mesh(name)
+        label = Path(name).stem if name not in MESHES else name
+        for _ in range(a.subdivide):
+            V, Fc = subdivide(V, Fc)
+        if a.subdivide:
+            label += f" ×4^{a.subdivide}" if a.subdivide > 1 else " ×4"
         protect = protected_triangles(V, Fc)
         for pct in a.fractions:
             Fh, k = delete_random(Fc, pct, a.seed, protect)
-            path = tmp / f"{name}_holed{pct:g}.obj"
+            path = tmp / f"{label}_holed{pct:g}.obj"
             write_obj(path, V, Fh)
             for res in a.res:
-                cases.append(dict(mesh=name, damage=f"{pct:g}% removed", res=res, path=path, V=V, F=Fh, igl=True))
-        if name == "bunny":
+                cases.append(dict(mesh=label, damage=f"{pct:g}% removed", res=res, path=path, V=V, F=Fh, igl=True))
+        if name == "bunny" and not a.subdivide:
             path = tmp / "bunny_closed.obj"
             write_obj(path, V, Fc)
             cases.append(dict(mesh=name, damage="closed", res=1024, path=path, V=V, F=Fc, igl=False))
@@ -609,13 +627,17 @@ def check_winding(a):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--meshes", nargs="+", default=list(MESHES), help="names (spot fandisk bunny) or OBJ paths")
+    ap.add_argument("--meshes", nargs="+", default=None,
+                    help="names (spot fandisk bunny) or OBJ paths of closed meshes (default: all three; "
+                    "speed mode: spot bunny)")
     ap.add_argument("--fractions", nargs="+", type=float, default=[0, 1, 5, 20, 40], help="percent of triangles deleted (0: the closed mesh)")
     ap.add_argument("-r", "--res", type=int, nargs="+", default=None, help="resolution(s) (holes mode: the first; default 128, speed mode 128 256)")
     ap.add_argument("--speed", action="store_true", help="speed mode (see above)")
     ap.add_argument("--rounds", type=int, default=3, help="speed mode: interleaved rounds")
     ap.add_argument("--no-score", action="store_true", help="speed mode: times only, no wrong-voxel count")
     ap.add_argument("--scanned-res", type=int, nargs="*", default=[512, 1024], help="speed mode: the bunny as scanned")
+    ap.add_argument("--subdivide", type=int, default=0, help="speed mode: split every triangle of the closed "
+                    "meshes 1-to-4 at its edge midpoints this many times first (denser meshes, same shape)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--reps", type=int, default=1, help="timed runs per tool (median)")
     ap.add_argument("--no-trimesh", action="store_true")
@@ -631,11 +653,13 @@ def main():
     if not Path(a.voxkit).exists():
         raise SystemExit(f"{a.voxkit} missing: run `cargo build --release` first")
     if a.speed:
+        a.meshes = a.meshes or ["spot", "bunny"]
         a.res = a.res or [128, 256]
         if a.fractions == [0, 1, 5, 20, 40]:
             a.fractions = [5, 20, 40]
         return speed(a)
     a.res = (a.res or [128])[0]
+    a.meshes = a.meshes or list(MESHES)
     if a.check_winding:
         raise SystemExit(check_winding(a))
     rows = []
