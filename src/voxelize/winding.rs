@@ -111,7 +111,8 @@ const U32: f64 = f32::EPSILON as f64 / 2.0;
 /// their differences with `p` (off by `u|a|` more) are off by
 /// `|ε| ≤ 2.01u(|a| + s)` per vector; that moves the triple product by at
 /// most `6.1uΠ` and the denominator (four terms, each moved by at most `|ε|`
-/// times the other two lengths per perturbed vector) by `24.1uΠ`; evaluating them in `f32` adds at most
+/// times the other two lengths per perturbed vector) by `24.1uΠ`;
+/// evaluating them in `f32` adds at most
 /// `γ₅·3√3 ≤ 26.1u` and `41u` times `|a||b||c|` (lengths to 2.5u, each dot
 /// product to `γ₃`, three additions of terms below `4|a||b||c|`). Sum
 /// `97.3u`: 128 leaves a margin. Guarded by
@@ -126,7 +127,8 @@ const NEAR_ROUNDING: f32 = 128.0 * f32::EPSILON / 2.0;
 /// `π/2` times that from rounding, once `(den, num)` is known to stay off
 /// atan2's cut at ±π (`|num| > E` or `den > E`). Where it is not (the point
 /// may lie in the triangle's plane, inside it, where `Ω` jumps by `4π`
-/// across the triangle) `flat` is set, and an exact test must say.
+/// across the triangle) `flat` is set, and an exact test must say. At most
+/// [`CHUNK`] triangles a call.
 #[inline(always)]
 fn near_kernel(
     tris: &[[[f32; 3]; 3]],
@@ -143,7 +145,8 @@ fn near_kernel(
     let mut num = [[0.0f32; LANES]; CHUNK];
     let mut den = [[0.0f32; LANES]; CHUNK];
     let mut bound = [[0.0f32; LANES]; CHUNK];
-    for (j, t) in tris.iter().enumerate().take(CHUNK) {
+    debug_assert!(tris.len() <= CHUNK);
+    for (j, t) in tris.iter().enumerate() {
         for i in 0..LANES {
             let a = [t[0][0] - p[0][i], t[0][1] - p[1][i], t[0][2] - p[2][i]];
             let b = [t[1][0] - p[0][i], t[1][1] - p[1][i], t[1][2] - p[2][i]];
@@ -161,7 +164,7 @@ fn near_kernel(
             bound[j][i] = NEAR_ROUNDING * ((la + s) * (lb + s) * (lc + s));
         }
     }
-    for j in 0..tris.len().min(CHUNK) {
+    for j in 0..tris.len() {
         for i in 0..LANES {
             let (num, den, bound) = (num[j][i], den[j][i], bound[j][i]);
             acc[i] += 2.0 * atan2_f32(num, den);
