@@ -469,7 +469,10 @@ fn render_cli(text: &str) -> std::result::Result<(), CliError> {
     if volume_args {
         let vol = tiny_volume();
         let vs = crate::render::VolumeScene::new(&vol, LIMIT)?;
-        let vopts = volume_options(&args, &vol)?;
+        let window = args
+            .window
+            .unwrap_or_else(|| crate::render::VolumeOptions::default_window(&vol));
+        let vopts = volume_options(&args, window)?;
         let d = vs.dims().map(|x| x as f64);
         let (lo, hi) = vs
             .transform()

@@ -458,8 +458,12 @@ pub fn render_volume<'py>(
                 full,
             );
         }
-        // The default window reads every sample: only when none is given.
-        let w = window.unwrap_or_else(|| VolumeOptions::default_window(&vol));
+        // The default window reads every sample: only when none is given,
+        // and then while the bricks are built.
+        let (scene, w) = match window {
+            Some(w) => (VolumeScene::from_volume(vol, v.opts.limit)?, w),
+            None => VolumeScene::with_default_window(vol, v.opts.limit)?,
+        };
         let mut vopts = VolumeOptions::with_window(VolumeMode::Mip, w);
         if let Some(tf) = &tf {
             vopts.transfer = TransferFunction::parse(tf)?;
@@ -476,7 +480,6 @@ pub fn render_volume<'py>(
             }
             Some(m) => m,
         };
-        let scene = VolumeScene::from_volume(vol, v.opts.limit)?;
         let xf = *scene.transform();
         let d = scene.dims().map(|x| x as f64);
         let (lo, hi) = xf.world_bounds(DVec3::splat(-0.5), DVec3::from_array(d) - 0.5);

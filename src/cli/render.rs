@@ -470,10 +470,16 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
             (Renderer::Store(paged), Some(Box::new(scene)))
         }
         Input::Volume(vol) => {
-            let vopts = volume_options(&args, &vol)?;
+            // The default window reads every sample: only when none is
+            // given, and then while the bricks are built.
+            let (vs, window) = match args.window {
+                Some(w) => (VolumeScene::from_volume(*vol, limit)?, w),
+                None => VolumeScene::with_default_window(*vol, limit)?,
+            };
+            let vopts = volume_options(&args, window)?;
             info.insert("kind".into(), "volume".into());
-            info.insert("dims".into(), serde_json::json!(vol.dims));
-            info.insert("dtype".into(), vol.source_type().name().into());
+            info.insert("dims".into(), serde_json::json!(vs.dims()));
+            info.insert("dtype".into(), vs.bricks().source_type().name().into());
             info.insert(
                 "mode".into(),
                 format!("{:?}", vopts.mode).to_lowercase().into(),
@@ -482,7 +488,6 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
                 "window".into(),
                 serde_json::json!([vopts.window.0, vopts.window.1]),
             );
-            let vs = VolumeScene::from_volume(*vol, limit)?;
             (Renderer::Volume(Box::new(vs), vopts), None)
         }
     };
@@ -663,15 +668,12 @@ impl Renderer {
     }
 }
 
-/// The volume options of the arguments (defaults from the data).
+/// The volume options of the arguments, over `window` (the arguments' own
+/// or the data's default).
 pub(crate) fn volume_options(
     args: &RenderArgs,
-    vol: &ScalarVolume,
+    window: (f32, f32),
 ) -> Result<VolumeOptions, CliError> {
-    // The default window reads every sample: only when none is given.
-    let window = args
-        .window
-        .unwrap_or_else(|| VolumeOptions::default_window(vol));
     let mut v = VolumeOptions::with_window(VolumeMode::Mip, window);
     if let Some(tf) = &args.tf {
         v.transfer = TransferFunction::parse(tf)?;

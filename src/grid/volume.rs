@@ -585,10 +585,26 @@ fn finite_range<T: Sample>(v: &[T]) -> Option<(f64, f64)> {
     (lo <= hi).then(|| (T::from_key(lo).to_f64(), T::from_key(hi).to_f64()))
 }
 
-fn percentiles_of<T: Sample>(v: &[T], ps: &[f64]) -> Vec<f64> {
-    // The first digit's counts (shared by every rank: nothing is fixed yet)
-    // also count the finite samples.
-    let first = digit_counts(v, 0, &[0]);
+/// The percentiles `ps` of the samples `v` (see [`ScalarVolume::percentiles`]).
+pub(crate) fn percentiles_of<T: Sample>(v: &[T], ps: &[f64]) -> Vec<f64> {
+    percentiles_by::<T>(ps, digit_counts(v, 0, &[0]), |known, prefixes| {
+        digit_counts(v, known, prefixes)
+    })
+}
+
+/// The percentiles `ps` (NumPy's `linear`; NaN where there is no finite
+/// sample or `p` is NaN) of samples of type `T` by radix selection, from
+/// the first digit's counts `first` (`2^digit_bits(0)` entries, which also
+/// count the finite samples) and `count(known, prefixes)`: the next digit's
+/// counts after `known` fixed bits among the samples whose key starts with
+/// one of `prefixes` (a table per prefix, concatenated, as
+/// [`count_digit`] fills them). Where the samples live is the caller's:
+/// a dense vector, or bricks that read only the ones that may match.
+pub(crate) fn percentiles_by<T: Sample>(
+    ps: &[f64],
+    first: Vec<u64>,
+    count: impl FnMut(u32, &[u64]) -> Vec<u64>,
+) -> Vec<f64> {
     let n: usize = first.iter().map(|&c| c as usize).sum();
     // The ranks each percentile needs: its lower neighbour, and the upper
     // one where it interpolates.
@@ -609,7 +625,11 @@ fn percentiles_of<T: Sample>(v: &[T], ps: &[f64]) -> Vec<f64> {
     }
     ranks.sort_unstable();
     ranks.dedup();
-    let values = select_ranks::<T>(v, &ranks, first);
+    let values = if ranks.is_empty() {
+        Vec::new()
+    } else {
+        select_ranks::<T>(&ranks, first, count)
+    };
     let at = |r: usize| values[ranks.binary_search(&r).expect("planned rank")];
     plan.into_iter()
         .map(|q| match q {
@@ -624,7 +644,7 @@ fn percentiles_of<T: Sample>(v: &[T], ps: &[f64]) -> Vec<f64> {
 }
 
 /// Bits of the digit fixed after `known` bits of a `T` key.
-fn digit_bits<T: Sample>(known: u32) -> u32 {
+pub(crate) fn digit_bits<T: Sample>(known: u32) -> u32 {
     (T::KEY_BITS - known).min(16)
 }
 
@@ -632,20 +652,11 @@ fn digit_bits<T: Sample>(known: u32) -> u32 {
 /// samples' keys, one table of `2^digit_bits` per prefix in `prefixes`
 /// (concatenated), in one parallel pass.
 fn digit_counts<T: Sample>(v: &[T], known: u32, prefixes: &[u64]) -> Vec<u64> {
-    let bits = digit_bits::<T>(known);
-    let shift = T::KEY_BITS - known - bits;
-    let width = 1usize << bits;
-    let mask = (width - 1) as u64;
+    let width = 1usize << digit_bits::<T>(known);
     let table = || vec![0u64; width * prefixes.len()];
     v.par_chunks(1 << 16)
         .fold(table, |mut counts, chunk| {
-            for k in chunk.iter().filter_map(|s| s.key()) {
-                // `checked_shr` keeps a shift by 64 (nothing fixed yet) defined.
-                let p = k.checked_shr(shift + bits).unwrap_or(0);
-                if let Some(j) = prefixes.iter().position(|&q| q == p) {
-                    counts[j * width + ((k >> shift) & mask) as usize] += 1;
-                }
-            }
+            count_digit(chunk, known, prefixes, &mut counts);
             counts
         })
         .reduce(table, |mut a, b| {
@@ -654,12 +665,46 @@ fn digit_counts<T: Sample>(v: &[T], known: u32, prefixes: &[u64]) -> Vec<u64> {
         })
 }
 
+/// Adds the next digit (after `known` fixed bits) of the keys of the
+/// finite samples in `samples` that start with one of `prefixes` to
+/// `counts` (a table of `2^digit_bits` per prefix, concatenated).
+#[inline]
+pub(crate) fn count_digit<T: Sample>(
+    samples: &[T],
+    known: u32,
+    prefixes: &[u64],
+    counts: &mut [u64],
+) {
+    let bits = digit_bits::<T>(known);
+    let shift = T::KEY_BITS - known - bits;
+    let width = 1usize << bits;
+    let mask = (width - 1) as u64;
+    if known == 0 {
+        // Nothing fixed yet: every finite sample counts, in the one table.
+        let counts = &mut counts[..width];
+        for k in samples.iter().filter_map(|s| s.key()) {
+            counts[((k >> shift) & mask) as usize] += 1;
+        }
+        return;
+    }
+    for k in samples.iter().filter_map(|s| s.key()) {
+        let p = k >> (shift + bits);
+        if let Some(j) = prefixes.iter().position(|&q| q == p) {
+            counts[j * width + ((k >> shift) & mask) as usize] += 1;
+        }
+    }
+}
+
 /// The finite samples of the sorted, distinct `ranks` (0-based, ascending
 /// order of value) by radix selection: the keys' top bits are fixed 16 at
-/// a time, each pass counting the next digit among the samples that share
-/// a prefix fixed so far, for every rank at once. `first` holds the first
-/// digit's counts.
-fn select_ranks<T: Sample>(v: &[T], ranks: &[usize], first: Vec<u64>) -> Vec<f64> {
+/// a time, each pass (`count`, as in [`percentiles_by`]) counting the next
+/// digit among the samples that share a prefix fixed so far, for every
+/// rank at once. `first` holds the first digit's counts.
+fn select_ranks<T: Sample>(
+    ranks: &[usize],
+    first: Vec<u64>,
+    mut count: impl FnMut(u32, &[u64]) -> Vec<u64>,
+) -> Vec<f64> {
     // Per rank: the prefix fixed so far and the rank among its samples.
     let mut state: Vec<(u64, usize)> = ranks.iter().map(|&r| (0, r)).collect();
     let mut known = 0;
@@ -685,7 +730,7 @@ fn select_ranks<T: Sample>(v: &[T], ranks: &[usize], first: Vec<u64>) -> Vec<f64
         if known < T::KEY_BITS {
             prefixes = state.iter().map(|s| s.0).collect();
             prefixes.dedup();
-            counts = digit_counts(v, known, &prefixes);
+            counts = count(known, &prefixes);
         }
     }
     state.iter().map(|s| T::from_key(s.0).to_f64()).collect()

@@ -34,10 +34,13 @@
 //! and 2 voxels ([`BrickRange`], clipped to the volume): what the renderer's
 //! skipping and adaptive flags need for nearest and trilinear samples.
 
+use std::sync::{Mutex, PoisonError};
+
 use glam::IVec3;
 use rayon::prelude::*;
 
 use crate::error::{Result, VoxkitError};
+use crate::grid::volume::{Sample, count_digit, digit_bits, percentiles_by, percentiles_of};
 use crate::grid::{MemoryLimit, ScalarType, ScalarVolume, VolumeData};
 
 /// Brick edge in voxels.
@@ -63,7 +66,9 @@ impl BrickRange {
 }
 
 /// A sample type the bricks store, read as the renderer's `f32`.
-pub(crate) trait Stored: Copy + Default + Send + Sync + 'static {
+pub(crate) trait Stored: Sample {
+    /// The smallest and the largest value of the type (`±∞` for floats).
+    const EXTREMES: (Self, Self);
     /// The value the renderer computes with (see the [module docs](self)).
     fn value(self) -> f32;
 }
@@ -71,6 +76,7 @@ pub(crate) trait Stored: Copy + Default + Send + Sync + 'static {
 macro_rules! stored_int {
     ($($t:ty),*) => {$(
         impl Stored for $t {
+            const EXTREMES: (Self, Self) = (<$t>::MIN, <$t>::MAX);
             #[inline(always)]
             fn value(self) -> f32 {
                 // Round to nearest, as `f64 → f32` of the exact value does.
@@ -82,6 +88,7 @@ macro_rules! stored_int {
 stored_int!(i8, u8, i16, u16, i32, u32);
 
 impl Stored for f32 {
+    const EXTREMES: (Self, Self) = (f32::NEG_INFINITY, f32::INFINITY);
     #[inline(always)]
     fn value(self) -> f32 {
         // NaN was replaced by −∞ when the bricks were built.
@@ -151,6 +158,30 @@ impl VolumeBricks {
     /// [module docs](self)) and computes the brick ranges. `limit` caps the
     /// bricks and their ranges together, checked before anything grows.
     pub fn from_volume(volume: ScalarVolume, limit: MemoryLimit) -> Result<Self> {
+        Ok(Self::with_percentiles(volume, limit, &[])?.0)
+    }
+
+    /// [`VolumeBricks::from_volume`], and the percentiles `ps` of the
+    /// finite samples (as [`ScalarVolume::percentiles`] gives them) read in
+    /// the same pass: the rearrangement counts the keys' first radix digit
+    /// as it goes, and the further digits (32-bit types) count only the
+    /// bricks whose range may hold the ranks sought. `float64` samples are
+    /// ranked before they narrow.
+    ///
+    /// ```
+    /// use voxkit::grid::{MemoryLimit, ScalarVolume, VolumeData, VolumeFrame};
+    /// use voxkit::render::VolumeBricks;
+    /// let data: Vec<f32> = (0..1000).map(|i| i as f32 * 0.5).collect();
+    /// let vol = ScalarVolume::new([10, 10, 10], VolumeData::F32(data), VolumeFrame::default()).unwrap();
+    /// let want = vol.percentiles(&[1.0, 99.5]);
+    /// let (_, got) = VolumeBricks::with_percentiles(vol, MemoryLimit::DEFAULT, &[1.0, 99.5]).unwrap();
+    /// assert_eq!(got, want);
+    /// ```
+    pub fn with_percentiles(
+        volume: ScalarVolume,
+        limit: MemoryLimit,
+        ps: &[f64],
+    ) -> Result<(Self, Vec<f64>)> {
         let dims = volume.dims;
         let bdims = dims.map(|d| d.div_ceil(BRICK as usize));
         let nb: usize = bdims.iter().product();
@@ -165,22 +196,183 @@ impl VolumeBricks {
             .try_reserve_exact(nb)
             .map_err(|_| too_big(nb * std::mem::size_of::<BrickRange>(), limit))?;
         ranges.resize(nb, BrickRange::EMPTY);
+        let count = !ps.is_empty();
+        let mut first = None;
         let store = match volume.data {
-            VolumeData::I8(v) => Store::I8(in_place(v, dims, &mut ranges, |x| x, limit)?),
-            VolumeData::U8(v) => Store::U8(in_place(v, dims, &mut ranges, |x| x, limit)?),
-            VolumeData::I16(v) => Store::I16(in_place(v, dims, &mut ranges, |x| x, limit)?),
-            VolumeData::U16(v) => Store::U16(in_place(v, dims, &mut ranges, |x| x, limit)?),
-            VolumeData::I32(v) => Store::I32(in_place(v, dims, &mut ranges, |x| x, limit)?),
-            VolumeData::U32(v) => Store::U32(in_place(v, dims, &mut ranges, |x| x, limit)?),
-            VolumeData::F32(v) => Store::F32(in_place(v, dims, &mut ranges, denan, limit)?),
-            VolumeData::F64(v) => Store::F32(narrowed(&v, dims, &mut ranges, limit)?),
+            VolumeData::I8(v) => Store::I8(in_place(
+                v,
+                dims,
+                &mut ranges,
+                |x| x,
+                count,
+                &mut first,
+                limit,
+            )?),
+            VolumeData::U8(v) => Store::U8(in_place(
+                v,
+                dims,
+                &mut ranges,
+                |x| x,
+                count,
+                &mut first,
+                limit,
+            )?),
+            VolumeData::I16(v) => Store::I16(in_place(
+                v,
+                dims,
+                &mut ranges,
+                |x| x,
+                count,
+                &mut first,
+                limit,
+            )?),
+            VolumeData::U16(v) => Store::U16(in_place(
+                v,
+                dims,
+                &mut ranges,
+                |x| x,
+                count,
+                &mut first,
+                limit,
+            )?),
+            VolumeData::I32(v) => Store::I32(in_place(
+                v,
+                dims,
+                &mut ranges,
+                |x| x,
+                count,
+                &mut first,
+                limit,
+            )?),
+            VolumeData::U32(v) => Store::U32(in_place(
+                v,
+                dims,
+                &mut ranges,
+                |x| x,
+                count,
+                &mut first,
+                limit,
+            )?),
+            VolumeData::F32(v) => Store::F32(in_place(
+                v,
+                dims,
+                &mut ranges,
+                denan,
+                count,
+                &mut first,
+                limit,
+            )?),
+            VolumeData::F64(v) => {
+                // Ranked as they are: narrowing could merge distinct values.
+                let p = if count {
+                    percentiles_of(&v, ps)
+                } else {
+                    Vec::new()
+                };
+                let store = Store::F32(narrowed(&v, dims, &mut ranges, limit)?);
+                let bricks = VolumeBricks {
+                    dims: dims.map(|d| d as i32),
+                    bdims: bdims.map(|d| d as i32),
+                    store,
+                    ranges,
+                    source,
+                };
+                return Ok((bricks, p));
+            }
         };
-        Ok(VolumeBricks {
+        let bricks = VolumeBricks {
             dims: dims.map(|d| d as i32),
             bdims: bdims.map(|d| d as i32),
             store,
             ranges,
             source,
+        };
+        let p = match first {
+            Some(first) => with_store!(&bricks.store, v => bricks.percentiles_of(v, ps, first)),
+            None => Vec::new(),
+        };
+        Ok((bricks, p))
+    }
+
+    /// The percentiles `ps` of the stored samples `v` (this store's vector)
+    /// from the first digit's counts `first`: the further digits are counted
+    /// over the bricks whose range meets a prefix sought, their padding
+    /// left out.
+    fn percentiles_of<T: Stored>(&self, v: &[T], ps: &[f64], first: Vec<u64>) -> Vec<f64> {
+        percentiles_by::<T>(ps, first, |known, prefixes| {
+            // Each prefix's keys span a closed interval of values (key order
+            // is numeric order; key patterns beyond the finite values, NaN
+            // for floats, widen to the type's extremes: the stored samples
+            // hold no NaN). Samples are screened by value, which vectorises,
+            // and only screened runs are counted by key (which also tells
+            // −0 from +0).
+            let free = T::KEY_BITS - known;
+            let spans: Vec<(T, T)> = prefixes
+                .iter()
+                .map(|&p| {
+                    let (lo, hi) = (
+                        T::from_key(p << free),
+                        T::from_key((p << free) | ((1u64 << free) - 1)),
+                    );
+                    #[allow(clippy::eq_op)] // NaN test for a generic sample
+                    let (lo, hi) = (
+                        if lo == lo { lo } else { T::EXTREMES.0 },
+                        if hi == hi { hi } else { T::EXTREMES.1 },
+                    );
+                    (lo, hi)
+                })
+                .collect();
+            let may_hold = |run: &[T]| {
+                spans.iter().any(|&(lo, hi)| {
+                    run.iter()
+                        .fold(false, |hit, &s| hit | ((s >= lo) & (s <= hi)))
+                })
+            };
+            // The same screen on a brick's range (`f32`, rounded to nearest:
+            // monotone, so a brick holding a matching sample has a range
+            // that meets the rounded interval).
+            let brick_spans: Vec<(f32, f32)> = spans
+                .iter()
+                .map(|&(lo, hi)| (lo.value(), hi.value()))
+                .collect();
+            let counts = ThreadTables::new((1usize << digit_bits::<T>(known)) * prefixes.len());
+            let [nx, ny, nz] = self.dims.map(|d| d as usize);
+            let [bx_n, by_n, _] = self.bdims.map(|d| d as usize);
+            self.ranges
+                .par_iter()
+                .enumerate()
+                .with_min_len(1 << 8)
+                .for_each(|(bi, r)| {
+                    if !brick_spans
+                        .iter()
+                        .any(|&(lo, hi)| r.max[0] >= lo && r.min[0] <= hi)
+                    {
+                        return;
+                    }
+                    let (bx, by, bz) = (bi % bx_n, bi / bx_n % by_n, bi / (bx_n * by_n));
+                    let b = BRICK as usize;
+                    let w = (nx - bx * b).min(b);
+                    let h = (ny - by * b).min(b);
+                    let d = (nz - bz * b).min(b);
+                    let brick = &v[bi * BRICK_LEN..][..BRICK_LEN];
+                    if w == b && h == b {
+                        for run in brick[..d * 64].chunks_exact(64) {
+                            if may_hold(run) {
+                                counts.with(|t| count_digit(run, known, prefixes, t));
+                            }
+                        }
+                    } else {
+                        counts.with(|t| {
+                            for lz in 0..d {
+                                for ly in 0..h {
+                                    let row = &brick[lz * 64 + ly * 8..][..w];
+                                    count_digit(row, known, prefixes, t);
+                                }
+                            }
+                        });
+                    }
+                });
+            counts.total()
         })
     }
 
@@ -375,12 +567,16 @@ fn too_big(bytes: usize, limit: MemoryLimit) -> VoxkitError {
 }
 
 /// Rearranges the dense samples `v` (x fastest, `dims`) into bricks in
-/// place, applying `fix` to every sample, and fills `ranges`.
+/// place, applying `fix` to every sample, and fills `ranges`; with `count`,
+/// also the first radix digit's counts of the fixed samples' keys into
+/// `first` (see [`VolumeBricks::with_percentiles`]).
 fn in_place<T: Stored>(
     mut v: Vec<T>,
     dims: [usize; 3],
     ranges: &mut [BrickRange],
     fix: impl Fn(T) -> T + Sync,
+    count: bool,
+    first: &mut Option<Vec<u64>>,
     limit: MemoryLimit,
 ) -> Result<Vec<T>> {
     let [nx, ny, nz] = dims;
@@ -397,13 +593,18 @@ fn in_place<T: Stored>(
     // after it (already overwritten in `v`), both with `fix` applied.
     let mut cur: Vec<T> = Vec::new();
     let mut next: Vec<T> = Vec::new();
+    let tables = count.then(|| ThreadTables::new(1 << digit_bits::<T>(0)));
     for k in (0..bd[2]).rev() {
         let z0 = k * BRICK as usize;
         let z1 = (z0 + BRICK as usize).min(nz);
         cur.clear();
         cur.extend_from_slice(&v[z0 * slice..z1 * slice]);
-        cur.par_chunks_mut(1 << 16)
-            .for_each(|c| c.iter_mut().for_each(|x| *x = fix(*x)));
+        cur.par_chunks_mut(1 << 16).for_each(|c| {
+            c.iter_mut().for_each(|x| *x = fix(*x));
+            if let Some(t) = &tables {
+                t.with(|t| count_digit(c, 0, &[0], t));
+            }
+        });
         {
             // Rows of the dense volume around this slab: slices before it
             // are still dense in `v` (the layers written so far start at or
@@ -436,7 +637,47 @@ fn in_place<T: Stored>(
         next.clear();
         next.extend_from_slice(&cur[..(z1 - z0).min(2) * slice]);
     }
+    *first = tables.map(ThreadTables::total);
     Ok(v)
+}
+
+/// Tables of counts, one per worker thread (each filled under its own,
+/// uncontended lock), summed at the end: a parallel pass counts into them
+/// without a table per task.
+struct ThreadTables {
+    tables: Vec<Mutex<Vec<u64>>>,
+}
+
+impl ThreadTables {
+    fn new(width: usize) -> Self {
+        // One table per pool thread, and one for callers outside the pool.
+        let n = rayon::current_num_threads() + 1;
+        ThreadTables {
+            tables: (0..n).map(|_| Mutex::new(vec![0; width])).collect(),
+        }
+    }
+
+    /// Runs `f` on the calling thread's table.
+    #[inline]
+    fn with(&self, f: impl FnOnce(&mut [u64])) {
+        let last = self.tables.len() - 1;
+        let i = rayon::current_thread_index().map_or(last, |i| i.min(last));
+        f(&mut self.tables[i]
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner));
+    }
+
+    fn total(self) -> Vec<u64> {
+        let mut tables = self
+            .tables
+            .into_iter()
+            .map(|m| m.into_inner().unwrap_or_else(PoisonError::into_inner));
+        let mut sum = tables.next().unwrap_or_default();
+        for t in tables {
+            sum.iter_mut().zip(t).for_each(|(s, x)| *s += x);
+        }
+        sum
+    }
 }
 
 /// Bricks of `f32` from dense `f64` samples (a new vector: the types differ
@@ -754,6 +995,82 @@ mod tests {
 
     /// Brick ranges equal brute force over the grown boxes, at odd sizes
     /// and with −∞ (NaN) samples.
+    /// The percentiles read while the bricks are built (first digit fused
+    /// into the rearrangement, further digits over screened bricks) are the
+    /// dense radix selection's, bit for bit: every stored type, padded
+    /// shapes, values that share their keys' top 16 bits (so the second
+    /// pass decides), negatives, ±0, NaN and ±∞, and no finite sample.
+    #[test]
+    fn percentiles_in_the_bricks_pass_equal_the_dense_ones() {
+        let ps = [0.0, 1.0, 12.5, 25.0, 33.3, 50.0, 70.0, 99.5, 100.0];
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            seed = seed
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            seed >> 33
+        };
+        for dims in [
+            [8usize, 8, 8],
+            [19, 9, 17],
+            [1, 1, 1],
+            [3, 20, 2],
+            [16, 16, 9],
+        ] {
+            let n: usize = dims.iter().product();
+            let mut r: Vec<u64> = (0..n).map(|_| next()).collect();
+            // Clustered: one top-16-bit bucket of each 32-bit type holds most
+            // samples, a few lie far out.
+            let f32s: Vec<f32> = r
+                .iter()
+                .enumerate()
+                .map(|(i, &x)| match i % 17 {
+                    0 => f32::NAN,
+                    1 => -0.0,
+                    2 => 0.0,
+                    3 if n > 40 => f32::INFINITY,
+                    4 if n > 40 => f32::NEG_INFINITY,
+                    5 => -1.0e30 * (x % 7) as f32,
+                    // Denormals: the bucket of +0, where a padding zero
+                    // counted by mistake would move a rank.
+                    6..=8 => f32::from_bits((x % 5000) as u32),
+                    _ => 1.0 + (x % 4096) as f32 * f32::EPSILON,
+                })
+                .collect();
+            let cases = vec![
+                VolumeData::I8(r.iter().map(|&x| x as i8).collect()),
+                VolumeData::U8(r.iter().map(|&x| (x % 3) as u8).collect()),
+                VolumeData::I16(r.iter().map(|&x| x as i16).collect()),
+                VolumeData::U16(r.iter().map(|&x| (x % 50) as u16 * 1000).collect()),
+                VolumeData::I32(r.iter().map(|&x| -70_000 + (x % 300) as i32).collect()),
+                VolumeData::I32(r.iter().map(|&x| (x % 600) as i32 - 300).collect()),
+                VolumeData::U32(r.iter().map(|&x| (x as u32) | 0xfff0_0000).collect()),
+                VolumeData::U32(r.iter().map(|&x| (x % 1000) as u32).collect()),
+                VolumeData::F32(f32s.clone()),
+                VolumeData::F32(r.iter().map(|&x| f32::from_bits(x as u32)).collect()),
+                VolumeData::F32(vec![f32::NAN; n]),
+                VolumeData::F64(f32s.iter().map(|&x| f64::from(x) * (1.0 + 1e-12)).collect()),
+            ];
+            r.clear();
+            for data in cases {
+                let ty = data.scalar_type();
+                let vol = ScalarVolume::new(dims, data, VolumeFrame::default()).unwrap();
+                let want = vol.percentiles(&ps);
+                let (b, got) =
+                    VolumeBricks::with_percentiles(vol.clone(), MemoryLimit::DEFAULT, &ps).unwrap();
+                for (g, w) in got.iter().zip(&want) {
+                    assert!(
+                        g.to_bits() == w.to_bits() || (g.is_nan() && w.is_nan()),
+                        "{ty:?} {dims:?}: {got:?} vs {want:?}"
+                    );
+                }
+                // The bricks are those `from_volume` builds.
+                let plain = VolumeBricks::from_volume(vol, MemoryLimit::DEFAULT).unwrap();
+                assert_eq!(b.ranges(), plain.ranges());
+            }
+        }
+    }
+
     #[test]
     fn brick_ranges_match_brute_force() {
         for dims in [

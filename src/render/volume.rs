@@ -168,15 +168,37 @@ impl VolumeScene {
     /// in place (no second copy of the volume; see [`VolumeBricks`]);
     /// `limit` caps the render structures, checked before anything grows.
     pub fn from_volume(volume: ScalarVolume, limit: MemoryLimit) -> Result<Self> {
+        Ok(Self::with_percentiles(volume, limit, &[])?.0)
+    }
+
+    /// [`VolumeScene::from_volume`], and the default window
+    /// ([`VolumeOptions::default_window`]) found in the same pass over the
+    /// samples ([`VolumeBricks::with_percentiles`]): one read of the volume
+    /// less than asking for both.
+    pub fn with_default_window(
+        volume: ScalarVolume,
+        limit: MemoryLimit,
+    ) -> Result<(Self, (f32, f32))> {
+        let (scene, p) = Self::with_percentiles(volume, limit, &DEFAULT_WINDOW_PERCENTILES)?;
+        Ok((scene, window_of_percentiles(p[0], p[1])))
+    }
+
+    fn with_percentiles(
+        volume: ScalarVolume,
+        limit: MemoryLimit,
+        ps: &[f64],
+    ) -> Result<(Self, Vec<f64>)> {
         let xf = GridTransform::new(volume.frame.origin, volume.frame.axes)?;
         let ref_len = volume.frame.axes.determinant().abs().cbrt();
         let space = volume.space;
-        Ok(VolumeScene {
-            bricks: VolumeBricks::from_volume(volume, limit)?,
+        let (bricks, p) = VolumeBricks::with_percentiles(volume, limit, ps)?;
+        let scene = VolumeScene {
+            bricks,
             xf,
             ref_len,
             space,
-        })
+        };
+        Ok((scene, p))
     }
 
     /// The axes the default views refer to: Z up, the front where the
@@ -474,15 +496,8 @@ impl VolumeOptions {
     /// assert_eq!(VolumeOptions::default_window(&vol), (10.0, 995.0));
     /// ```
     pub fn default_window(volume: &ScalarVolume) -> (f32, f32) {
-        let p = volume.percentiles(&[1.0, 99.5]);
-        let (lo, hi) = (p[0] as f32, p[1] as f32);
-        if !(lo.is_finite() && hi.is_finite()) {
-            (0.0, 1.0)
-        } else if lo < hi {
-            (lo, hi)
-        } else {
-            (lo - 0.5, lo + 0.5)
-        }
+        let p = volume.percentiles(&DEFAULT_WINDOW_PERCENTILES);
+        window_of_percentiles(p[0], p[1])
     }
 
     fn validate(&self) -> Result<()> {
@@ -498,6 +513,22 @@ impl VolumeOptions {
             return Err(VoxkitError::invalid(format!("iso value {v} is not finite")));
         }
         Ok(())
+    }
+}
+
+/// The percentiles the default window spans.
+const DEFAULT_WINDOW_PERCENTILES: [f64; 2] = [1.0, 99.5];
+
+/// The default window from its percentiles (see
+/// [`VolumeOptions::default_window`]).
+fn window_of_percentiles(lo: f64, hi: f64) -> (f32, f32) {
+    let (lo, hi) = (lo as f32, hi as f32);
+    if !(lo.is_finite() && hi.is_finite()) {
+        (0.0, 1.0)
+    } else if lo < hi {
+        (lo, hi)
+    } else {
+        (lo - 0.5, lo + 0.5)
     }
 }
 
