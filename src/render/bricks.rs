@@ -793,9 +793,16 @@ fn layer_ranges<'a, T: Stored + 'a>(
                 for y in y_lo..=y_hi {
                     let ring = y0.saturating_sub(y).max(y.saturating_sub(y1)).max(rz);
                     for (r, e) in brow.iter_mut().zip(&rows[at(z, y)..][..bd[0]]) {
+                        // Plain comparisons: no NaN reaches the ranges (see
+                        // `row_pass`), and `f32::min`'s NaN handling costs
+                        // a blend per value.
                         for q in ring..3 {
-                            r.min[q] = r.min[q].min(e.min[q]);
-                            r.max[q] = r.max[q].max(e.max[q]);
+                            if e.min[q] < r.min[q] {
+                                r.min[q] = e.min[q];
+                            }
+                            if e.max[q] > r.max[q] {
+                                r.max[q] = e.max[q];
+                            }
                         }
                     }
                 }
@@ -838,8 +845,12 @@ fn row_pass<T: Stored>(
         for r in 1..3 {
             for x in [lo.wrapping_sub(r), hi + r] {
                 if let Some(&v) = buf.get(x) {
-                    mn = mn.min(v);
-                    mx = mx.max(v);
+                    if v < mn {
+                        mn = v;
+                    }
+                    if v > mx {
+                        mx = v;
+                    }
                 }
             }
             o.min[r] = mn;
