@@ -198,86 +198,27 @@ impl VolumeBricks {
         ranges.resize(nb, BrickRange::EMPTY);
         let count = !ps.is_empty();
         let mut first = None;
+        // Rearranges one typed vector in place, counting as asked.
+        macro_rules! in_place {
+            ($v:expr, $fix:expr) => {
+                in_place($v, dims, &mut ranges, $fix, count, &mut first, limit)?
+            };
+        }
+        let mut dense = Vec::new();
         let store = match volume.data {
-            VolumeData::I8(v) => Store::I8(in_place(
-                v,
-                dims,
-                &mut ranges,
-                |x| x,
-                count,
-                &mut first,
-                limit,
-            )?),
-            VolumeData::U8(v) => Store::U8(in_place(
-                v,
-                dims,
-                &mut ranges,
-                |x| x,
-                count,
-                &mut first,
-                limit,
-            )?),
-            VolumeData::I16(v) => Store::I16(in_place(
-                v,
-                dims,
-                &mut ranges,
-                |x| x,
-                count,
-                &mut first,
-                limit,
-            )?),
-            VolumeData::U16(v) => Store::U16(in_place(
-                v,
-                dims,
-                &mut ranges,
-                |x| x,
-                count,
-                &mut first,
-                limit,
-            )?),
-            VolumeData::I32(v) => Store::I32(in_place(
-                v,
-                dims,
-                &mut ranges,
-                |x| x,
-                count,
-                &mut first,
-                limit,
-            )?),
-            VolumeData::U32(v) => Store::U32(in_place(
-                v,
-                dims,
-                &mut ranges,
-                |x| x,
-                count,
-                &mut first,
-                limit,
-            )?),
-            VolumeData::F32(v) => Store::F32(in_place(
-                v,
-                dims,
-                &mut ranges,
-                denan,
-                count,
-                &mut first,
-                limit,
-            )?),
+            VolumeData::I8(v) => Store::I8(in_place!(v, |x| x)),
+            VolumeData::U8(v) => Store::U8(in_place!(v, |x| x)),
+            VolumeData::I16(v) => Store::I16(in_place!(v, |x| x)),
+            VolumeData::U16(v) => Store::U16(in_place!(v, |x| x)),
+            VolumeData::I32(v) => Store::I32(in_place!(v, |x| x)),
+            VolumeData::U32(v) => Store::U32(in_place!(v, |x| x)),
+            VolumeData::F32(v) => Store::F32(in_place!(v, denan)),
             VolumeData::F64(v) => {
                 // Ranked as they are: narrowing could merge distinct values.
-                let p = if count {
-                    percentiles_of(&v, ps)
-                } else {
-                    Vec::new()
-                };
-                let store = Store::F32(narrowed(&v, dims, &mut ranges, limit)?);
-                let bricks = VolumeBricks {
-                    dims: dims.map(|d| d as i32),
-                    bdims: bdims.map(|d| d as i32),
-                    store,
-                    ranges,
-                    source,
-                };
-                return Ok((bricks, p));
+                if count {
+                    dense = percentiles_of(&v, ps);
+                }
+                Store::F32(narrowed(&v, dims, &mut ranges, limit)?)
             }
         };
         let bricks = VolumeBricks {
@@ -289,7 +230,7 @@ impl VolumeBricks {
         };
         let p = match first {
             Some(first) => with_store!(&bricks.store, v => bricks.percentiles_of(v, ps, first)),
-            None => Vec::new(),
+            None => dense,
         };
         Ok((bricks, p))
     }
@@ -864,6 +805,10 @@ mod tests {
     use super::*;
     use crate::grid::VolumeFrame;
 
+    /// Volume shapes that are and are not multiples of the brick: whole
+    /// bricks, padding on every axis, one voxel, thin, padding in z only.
+    const SHAPES: [[usize; 3]; 5] = [[8, 8, 8], [19, 9, 17], [1, 1, 1], [3, 20, 2], [16, 16, 9]];
+
     fn bricks(dims: [usize; 3], data: VolumeData) -> VolumeBricks {
         let vol = ScalarVolume::new(dims, data, VolumeFrame::default()).unwrap();
         VolumeBricks::from_volume(vol, MemoryLimit::DEFAULT).unwrap()
@@ -877,13 +822,7 @@ mod tests {
     /// the brick, through `value`, `gather` and `value_at`.
     #[test]
     fn every_type_reads_back_its_values() {
-        for dims in [
-            [8usize, 8, 8],
-            [19, 9, 17],
-            [1, 1, 1],
-            [3, 20, 2],
-            [16, 16, 9],
-        ] {
+        for dims in SHAPES {
             let n: usize = dims.iter().product();
             let raw: Vec<i64> = (0..n as i64)
                 .map(|i| (i * 7919 + 13) % 1009 - 500)
@@ -1021,15 +960,9 @@ mod tests {
                 .wrapping_add(1_442_695_040_888_963_407);
             seed >> 33
         };
-        for dims in [
-            [8usize, 8, 8],
-            [19, 9, 17],
-            [1, 1, 1],
-            [3, 20, 2],
-            [16, 16, 9],
-        ] {
+        for dims in SHAPES {
             let n: usize = dims.iter().product();
-            let mut r: Vec<u64> = (0..n).map(|_| next()).collect();
+            let r: Vec<u64> = (0..n).map(|_| next()).collect();
             // Clustered: one top-16-bit bucket of each 32-bit type holds most
             // samples, a few lie far out.
             let f32s: Vec<f32> = r
@@ -1062,7 +995,6 @@ mod tests {
                 VolumeData::F32(vec![f32::NAN; n]),
                 VolumeData::F64(f32s.iter().map(|&x| f64::from(x) * (1.0 + 1e-12)).collect()),
             ];
-            r.clear();
             for data in cases {
                 let ty = data.scalar_type();
                 let vol = ScalarVolume::new(dims, data, VolumeFrame::default()).unwrap();
