@@ -943,8 +943,6 @@ mod tests {
         }
     }
 
-    /// Brick ranges equal brute force over the grown boxes, at odd sizes
-    /// and with −∞ (NaN) samples.
     /// The percentiles read while the bricks are built (first digit fused
     /// into the rearrangement, further digits over screened bricks) are the
     /// dense radix selection's, bit for bit: every stored type, padded
@@ -1014,6 +1012,8 @@ mod tests {
         }
     }
 
+    /// Brick ranges equal brute force over the grown boxes, at odd sizes
+    /// and with −∞ (NaN) samples.
     #[test]
     fn brick_ranges_match_brute_force() {
         for dims in [

@@ -231,7 +231,38 @@ pub struct RenderImage {
     pub hit: Vec<Option<IVec3>>,
 }
 
+/// One band of rows of a [`RenderImage`]: its colours, depths and hits.
+pub(crate) type ImageBand<'a> = (&'a mut [[f32; 4]], &'a mut [f32], &'a mut [Option<IVec3>]);
+
 impl RenderImage {
+    /// A `width × height` image of misses: no colour, `depth` everywhere, no hit.
+    pub(crate) fn blank(width: u32, height: u32, depth: f32) -> Self {
+        let n = width as usize * height as usize;
+        RenderImage {
+            width,
+            height,
+            color: vec![[0.0; 4]; n],
+            depth: vec![depth; n],
+            hit: vec![None; n],
+        }
+    }
+
+    /// The image in bands of `rows` rows (the last may be shorter), in
+    /// parallel, each with its index: renderers write pixels straight into
+    /// the frame's buffers, with no per-band vectors to gather afterwards.
+    pub(crate) fn par_bands(
+        &mut self,
+        rows: usize,
+    ) -> impl IndexedParallelIterator<Item = (usize, ImageBand<'_>)> {
+        let len = rows * self.width as usize;
+        self.color
+            .par_chunks_mut(len)
+            .zip(self.depth.par_chunks_mut(len))
+            .zip(self.hit.par_chunks_mut(len))
+            .map(|((c, d), h)| (c, d, h))
+            .enumerate()
+    }
+
     /// RGBA8 composited over `background` (for PNG and GIF).
     pub fn to_rgba8(&self, background: [f32; 3]) -> Vec<u8> {
         let q = |x: f32| (x.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
@@ -553,23 +584,12 @@ pub fn render_grid_window<G: RenderBricks>(
     // Rows write straight into the frame's buffers (no per-row vectors to
     // gather afterwards); only the counters are reduced.
     let n = (w as usize) * (h as usize);
-    let mut img = RenderImage {
-        width: w,
-        height: h,
-        color: vec![[0.0; 4]; n],
-        depth: vec![f32::INFINITY; n],
-        hit: vec![None; n],
-    };
+    let mut img = RenderImage::blank(w, h, f32::INFINITY);
     // Bands of rows: a band's rows run in order, so a hit voxel's fit for
     // its smooth normal is shared with the pixels right of and below it.
-    let band = w as usize * NORMAL_BAND;
     let (counters, hits) = img
-        .color
-        .par_chunks_mut(band)
-        .zip(img.depth.par_chunks_mut(band))
-        .zip(img.hit.par_chunks_mut(band))
-        .enumerate()
-        .map(|(b, ((color, depth), hit))| {
+        .par_bands(NORMAL_BAND)
+        .map(|(b, (color, depth, hit))| {
             let mut c = cast::CastCounters::default();
             let mut hits = 0u64;
             let mut fits = (opts.normals == NormalMode::Smooth).then(|| FitCache::new(w as usize));
