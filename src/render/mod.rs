@@ -32,6 +32,7 @@ mod cast;
 pub mod measure;
 mod normal;
 mod occupancy;
+mod opacity;
 mod paged;
 pub mod volume;
 
@@ -43,6 +44,7 @@ use rayon::prelude::*;
 pub use crate::camera::{Camera, Projection, SceneAxes, ViewPreset};
 pub use bricks::{BrickRange, VolumeBricks};
 pub use occupancy::{BrickFlags, MAX_RENDER_DIM, OccupancyGrid, RenderBricks};
+pub use opacity::{OPACITY_ULPS, corrected_opacity};
 pub use paged::{PagedBrick, PagedOccupancy};
 pub use volume::{
     EARLY_TERMINATION, RAMP_OPACITY, Sampling, TfPoint, TransferFunction, VolumeMode,

@@ -112,7 +112,7 @@ use super::cast::CastCounters;
 use super::occupancy::chessboard_distance;
 use super::{
     GridRay, GridTransform, NormalMode, RayKind, RaySetup, RenderImage, RenderOptions, RenderStats,
-    camera_check, check_image,
+    camera_check, check_image, corrected_opacity,
 };
 
 /// Compositing stops once the accumulated opacity reaches this.
@@ -745,6 +745,14 @@ trait Accum {
     /// Takes a visited voxel's sample and stretch length (world units);
     /// `true` ends the ray.
     fn visit(&mut self, v: IVec3, s: f32, len: f64) -> bool;
+    /// Visits a run of voxels in order (`buf`'s world voxels, their
+    /// samples and stretch lengths); `Some(i)` when voxel `i` ends the ray.
+    /// Accumulators whose per-voxel arithmetic vectorises over the run
+    /// (compositing's opacity correction) override it.
+    #[inline(always)]
+    fn visit_run(&mut self, buf: &[(IVec3, usize)], s: &[f32], len: &[f64]) -> Option<usize> {
+        (0..buf.len()).find(|&i| self.visit(buf[i].0, s[i], len[i]))
+    }
     /// A value such that boxes whose samples all lie at or below it can be
     /// jumped now, beyond the frame's static classification (MIP: the
     /// running maximum).
@@ -809,27 +817,58 @@ impl Accum for Composite<'_> {
     const LEN: bool = true;
     #[inline(always)]
     fn visit(&mut self, v: IVec3, s: f32, len: f64) -> bool {
-        let tau = self.tf.opacity(s);
-        if tau <= 0.0 {
-            return false;
+        self.visit_run(&[(v, 0)], &[s], &[len]).is_some()
+    }
+
+    /// The run's opacities first (the transfer function per voxel, then
+    /// the opacity correction, whose arithmetic vectorises across the
+    /// run's voxels), then front-to-back accumulation in order.
+    #[inline(always)]
+    fn visit_run(&mut self, buf: &[(IVec3, usize)], s: &[f32], len: &[f64]) -> Option<usize> {
+        let n = buf.len().min(BUF);
+        let (s, len) = (&s[..n], &len[..n]);
+        // Whole lanes of 8 (past `n`, τ = 0): a loop with a remainder
+        // would take short runs, the common case, through scalar code.
+        let lanes = n.div_ceil(8) * 8;
+        let mut tau = [0f32; BUF];
+        let mut y = [0f32; BUF];
+        for ((t, y), (&s, &l)) in tau.iter_mut().zip(&mut y).zip(s.iter().zip(len)) {
+            *t = self.tf.opacity(s);
+            *y = (l * self.inv_ref) as f32;
         }
-        let alpha = 1.0 - (1.0 - tau).powf((len * self.inv_ref) as f32);
-        if alpha <= 0.0 {
-            return false;
+        let mut alpha = [0f32; BUF];
+        for ((a, t), y) in alpha[..lanes]
+            .chunks_exact_mut(8)
+            .zip(tau[..lanes].chunks_exact(8))
+            .zip(y[..lanes].chunks_exact(8))
+        {
+            for k in 0..8 {
+                a[k] = corrected_opacity(t[k], y[k]);
+            }
         }
-        if self.hit.is_none() {
-            self.hit = Some(v);
+        for i in 0..n {
+            // τ = 0 gives α = 0 exactly.
+            let alpha = alpha[i];
+            if alpha <= 0.0 {
+                continue;
+            }
+            if self.hit.is_none() {
+                self.hit = Some(buf[i].0);
+            }
+            let col = self
+                .tf
+                .color(s[i])
+                .unwrap_or_else(|| [grey(s[i], self.window); 3]);
+            let w = (1.0 - self.a) * alpha;
+            for (ck, k) in self.c.iter_mut().zip(col) {
+                *ck += w * k;
+            }
+            self.a += w;
+            if self.a >= EARLY_TERMINATION {
+                return Some(i);
+            }
         }
-        let col = self
-            .tf
-            .color(s)
-            .unwrap_or_else(|| [grey(s, self.window); 3]);
-        let w = (1.0 - self.a) * alpha;
-        for (ck, k) in self.c.iter_mut().zip(col) {
-            *ck += w * k;
-        }
-        self.a += w;
-        self.a >= EARLY_TERMINATION
+        None
     }
 }
 
@@ -861,35 +900,41 @@ fn consume<A: Accum, const TRI: bool>(
     n: &mut CastCounters,
 ) -> bool {
     let bricks = &ctx.scene.bricks;
-    let mut nearest = [0f32; BUF];
+    let mut samples = [0f32; BUF];
+    let mut lens = [0f64; BUF];
     if !TRI {
-        bricks.gather(buf, &mut nearest[..buf.len()]);
+        bricks.gather(buf, &mut samples[..buf.len()]);
     }
-    for (i, &(v, idx)) in buf.iter().enumerate() {
-        n.visited += 1;
-        let st = if !(TRI || A::LEN) {
-            (0.0, 0.0)
-        } else if let Some((major, prev)) = column.as_mut()
-            && g.inv[*major] != 0.0
-        {
-            let c = v[*major];
-            let (a, z) = g.column(*major, c);
-            let repeated = c == **prev;
-            **prev = c;
-            if repeated { (a, a) } else { (a, z) }
-        } else {
-            g.chord(v)
-        };
-        let s = if TRI {
-            bricks.trilinear(v, idx, g.sample_point(v, st))
-        } else {
-            nearest[i]
-        };
-        if acc.visit(v, s, (st.1 - st.0).max(0.0)) {
-            return true;
+    if TRI || A::LEN {
+        for (i, &(v, idx)) in buf.iter().enumerate() {
+            let st = if let Some((major, prev)) = column.as_mut()
+                && g.inv[*major] != 0.0
+            {
+                let c = v[*major];
+                let (a, z) = g.column(*major, c);
+                let repeated = c == **prev;
+                **prev = c;
+                if repeated { (a, a) } else { (a, z) }
+            } else {
+                g.chord(v)
+            };
+            if TRI {
+                samples[i] = bricks.trilinear(v, idx, g.sample_point(v, st));
+            }
+            lens[i] = (st.1 - st.0).max(0.0);
         }
     }
-    false
+    let n_buf = buf.len();
+    match acc.visit_run(buf, &samples[..n_buf], &lens[..n_buf]) {
+        Some(i) => {
+            n.visited += i as u64 + 1;
+            true
+        }
+        None => {
+            n.visited += n_buf as u64;
+            false
+        }
+    }
 }
 
 /// The box of world voxels (inclusive) a ray in brick `b` (index `bi`) may
