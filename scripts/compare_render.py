@@ -7,8 +7,8 @@ usage (from the repository root; the venv comes from scripts/setup_render_peer.s
     bash scripts/setup_render_peer.sh
     ~/.cache/voxkit-peers/venv/bin/python scripts/compare_render.py \
         [--quick] [--rounds N] [--reps 5] [--size 1024x1024] [--work target/compare_render] \
-        [--out-json FILE.jsonl] [--tools voxkit vtk] [--cases bunny256 bunny512 headsq blobs512] \
-        [--wait-quiet S] [--quiet-share 0.10] [--view iso] [--voxkit PATH]
+        [--out-json FILE.jsonl] [--tools voxkit vtk embree] [--cases bunny256 bunny512 headsq blobs512] \
+        [--projections perspective ortho] [--wait-quiet S] [--quiet-share 0.10] [--view iso] [--voxkit PATH]
 
 What was measured with it, and against the README of ../shared/peers: docs/render-peer.md.
 
@@ -35,6 +35,13 @@ rounds, so that a slow phase of the shared machine hits both tools):
           whose first hit differs from the 6-ray image, so --measure's extra work is not timed.
   VTK     <venv>/bin/python render_vtk.py --volume X --mode surface|mip|composite --size WxH
           --reps R --msaa 0 --out OUT.png  (binary grids: surface; volumes: mip and composite)
+
+  Embree  (--tools embree; bunny cases) <venv>/bin/python scripts/embree_rays.py MESH --camera JSON
+          --size WxH --reps R: the original triangle mesh cast along the pixel rays of voxkit's own
+          camera (`camera` in its --json), on one thread; a second table gives voxkit's adaptive
+          frame × its threads against Embree's frame (per core).
+--projections perspective ortho: every voxkit configuration (and Embree) also with --ortho; VTK's
+script has no orthographic view, so those rows have no VTK column.
 
 Reported per row: voxkit `render_ms` (median over rounds), `differing_pixels`, VTK frame ms
 (render + read-back, median of its R reps, then median over rounds), VTK set-up s (grid, plotter,
@@ -268,14 +275,19 @@ def voxkit_available():
     return True, ""
 
 
-def voxkit_configs(case):
-    if case["binary"]:
-        return [dict(mode=f"ray {ray}", skip=skip, args=["--ray", ray] + ([] if skip else ["--no-skip"]))
-                for ray in RAYS for skip in (True, False)]
+def voxkit_configs(case, projections=("perspective",)):
     out = []
-    for m in VOLUME_MODES:
-        args = ["--volume", m] + (["--iso", repr(case["iso"])] if m == "iso" else [])
-        out.append(dict(mode=m, skip=True, args=args))
+    for proj in projections:
+        ortho = proj == "ortho"
+        tag, extra = (" (ortho)", ["--ortho"]) if ortho else ("", [])
+        if case["binary"]:
+            out += [dict(mode=f"ray {ray}{tag}", skip=skip, ortho=ortho,
+                         args=["--ray", ray] + ([] if skip else ["--no-skip"]) + extra)
+                    for ray in RAYS for skip in (True, False)]
+        else:
+            for m in VOLUME_MODES:
+                args = ["--volume", m] + (["--iso", repr(case["iso"])] if m == "iso" else []) + extra
+                out.append(dict(mode=f"{m}{tag}", skip=True, ortho=ortho, args=args))
     return out
 
 
@@ -293,7 +305,11 @@ def main():
     ap.add_argument("--view", default="iso", help="voxkit --view ('' to pass none); VTK uses camera_position='iso'")
     ap.add_argument("--work", default=str(ROOT / "target" / "compare_render"))
     ap.add_argument("--out-json", default=None, help="JSON lines of every raw run (default WORK/results.jsonl)")
-    ap.add_argument("--tools", nargs="+", default=["voxkit", "vtk"], choices=["voxkit", "vtk"])
+    ap.add_argument("--tools", nargs="+", default=["voxkit", "vtk"], choices=["voxkit", "vtk", "embree"],
+                    help="embree: the bunny's original mesh cast along voxkit's own pixel rays "
+                         "(scripts/embree_rays.py, one thread; needs `pip install embreex` in the peer venv)")
+    ap.add_argument("--projections", nargs="+", default=["perspective"], choices=["perspective", "ortho"],
+                    help="voxkit and Embree views (VTK's script has no orthographic view: n/a there)")
     ap.add_argument("--cases", nargs="+", default=None, help="subset of bunny256 bunny512 headsq blobs512")
     ap.add_argument("--python", default=None, help="interpreter for render_vtk.py (default: the peer venv's)")
     ap.add_argument("--peer", default=str(SHARED / "peers" / "render_vtk.py"))
@@ -327,7 +343,7 @@ def main():
         print(f"[compare_render] {msg}", file=sys.stderr, flush=True)
 
     py = a.python or str(DEFAULT_VENV / "bin" / "python")
-    if "vtk" in a.tools and not Path(py).exists():
+    if {"vtk", "embree"} & set(a.tools) and not Path(py).exists():
         raise SystemExit(f"{py} missing: run `bash scripts/setup_render_peer.sh` first")
 
     ensure_voxkit()
@@ -352,7 +368,7 @@ def main():
             res = int(name[5:])
             path, voxels = voxelize_bunny(res, work, log)
             cases.append(dict(name=name, label=f"bunny thin {res}³ ({voxels:,} voxels)" if voxels else f"bunny thin {res}³",
-                              path=path, binary=True))
+                              path=path, binary=True, mesh=ROOT / "data/meshes/obj/stanford-bunny.obj"))
         elif name == "headsq":
             cases.append(dict(name=name, label="CT head 64×64×93 int16", path=ct_head(), binary=False, iso=a.ct_iso))
         elif name.startswith("blobs"):
@@ -382,7 +398,7 @@ def main():
     measured = {}  # (case, mode, skip) -> differing_pixels
 
     def run_voxkit(case, rnd):
-        for c in voxkit_configs(case):
+        for c in voxkit_configs(case, a.projections):
             key = (case["name"], c["mode"], c["skip"])
             png = work / "png" / f"{case['name']}_voxkit_{c['mode'].replace(' ', '')}{'' if c['skip'] else '_noskip'}.png"
             base = [VOXKIT, "render", case["path"], "-o", png, "--size", a.size, "--json", "--force"] + c["args"]
@@ -420,6 +436,39 @@ def main():
                 say(f"VTK {case['name']} {mode} round {rnd}: {j['frame_ms_median']} ms/frame, set-up {j['setup_s']} s, "
                     f"{r['maxrss_mib']} MiB, others took {100 * (r.get('others_cpu_share') or 0):.0f}% of the CPUs")
 
+    em = {}  # (case, projection) -> list of Embree runs
+
+    def run_embree(case, rnd):
+        """The case's original mesh cast by Embree along the rays of voxkit's own camera (from the
+        JSON of its adaptive timing run this round, or of a run made for it)."""
+        if not case.get("mesh"):
+            return
+        for proj in a.projections:
+            tag = " (ortho)" if proj == "ortho" else ""
+            runs = vk.get((case["name"], f"ray adaptive{tag}", True)) or []
+            cam = next((r["json"].get("camera") for r in reversed(runs) if r["json"]), None)
+            if cam is None:
+                png = work / "png" / f"{case['name']}_camera.png"
+                c = run([VOXKIT, "render", case["path"], "-o", png, "--size", a.size, "--json", "--force"]
+                        + (["--ortho"] if proj == "ortho" else []) + (["--view", a.view] if a.view else []),
+                        timeout=a.timeout, cwd=ROOT)
+                cam = (c["json"] or {}).get("camera")
+            if cam is None:
+                say(f"Embree {case['name']} {proj}: no camera from voxkit")
+                continue
+            waited = wait_quiet(a.wait_quiet, a.quiet_share) if a.wait_quiet > 0 else (0.0, None)
+            r = run([py, ROOT / "scripts/embree_rays.py", case["mesh"], "--camera", json.dumps(cam),
+                     "--size", a.size, "--reps", reps], timeout=a.timeout, cwd=ROOT)
+            r["waited_quiet_s"], r["share_before"] = waited
+            log(dict(kind="run", tool="embree", case=case["name"], projection=proj, round=rnd, **r))
+            em.setdefault((case["name"], proj), []).append(r)
+            j = r["json"]
+            if j is None:
+                say(f"Embree {case['name']} {proj}: {r.get('error')}")
+            else:
+                say(f"Embree {case['name']} {proj} round {rnd}: {j['frame_ms_median']:.1f} ms/frame (1 thread), "
+                    f"hits {100 * j['hit_fraction']:.1f}%")
+
     for rnd in range(1, a.rounds + 1):
         for case in cases:
             order = [run_voxkit, run_vtk] if rnd % 2 == 1 else [run_vtk, run_voxkit]
@@ -429,6 +478,8 @@ def main():
                 if f is run_vtk and "vtk" not in a.tools:
                     continue
                 f(case, rnd)
+            if "embree" in a.tools:
+                run_embree(case, rnd)
 
     # -- table ---------------------------------------------------------------------------------
     def quiet(runs):
@@ -468,7 +519,7 @@ def main():
     for case in cases:
         vtk_of = {m: vtk_summary(case, m) for m in vtk_modes(case)}
         if have_vk:
-            for c in voxkit_configs(case):
+            for c in voxkit_configs(case, a.projections):
                 v = vk_summary(case, c)
                 peer_mode = "surface" if case["binary"] else c["mode"]
                 rows.append(dict(case=case["name"], input=case["label"],
@@ -499,6 +550,8 @@ def main():
         vms_s = f1(vms, ".1f") + ("*" if v and v["disturbed"] else "")
         if t is None and not r["mode"].startswith("surface") and r["mode"] not in VTK_VOLUME_MODES:
             tms_s = "–"  # no VTK counterpart (iso)
+        if t is None and "(ortho)" in r["mode"]:
+            tms_s = "–"  # render_vtk.py has no orthographic view
         ratio = f"{tms / vms:.2f}×" if (vms and tms) else na
         diff = v["differing"] if v and v["differing"] is not None else None
         lines.append(
@@ -506,8 +559,32 @@ def main():
             f"{tms_s} | {f1(t['setup_s'] if t else None, '.2f')} | {ratio} | {f1(v['load_ms'] if v else None, '.1f')} | "
             f"{f1(v['rss'] if v else None, '.0f')} | {f1(t['rss'] if t else None, '.0f')} |")
         log(dict(kind="row", **{k: (str(x) if isinstance(x, Path) else x) for k, x in r.items()}))
+    if em:
+        threads = os.cpu_count()
+        lines += ["", f"Embree (scripts/embree_rays.py: the original mesh, voxkit's own pixel rays, one thread) against "
+                      f"voxkit's adaptive frame with skipping on {threads} threads; per core = voxkit ms × {threads} "
+                      f"against Embree's single-thread ms (issue 21 asks ≤ 1×).", "",
+                  "| input | projection | voxkit adaptive ms/frame | × threads | Embree ms/frame (1 thread) | Embree hits "
+                  "| voxkit per core / Embree |",
+                  "|---|---|---|---|---|---|---|"]
+        for case in cases:
+            for proj in a.projections:
+                runs = [r for r in em.get((case["name"], proj), []) if r["json"] is not None]
+                if not runs:
+                    continue
+                runs, disturbed = quiet(runs)
+                ems = median(r["json"]["frame_ms_median"] for r in runs)
+                tag = " (ortho)" if proj == "ortho" else ""
+                v = vk_summary(case, dict(mode=f"ray adaptive{tag}", skip=True))
+                vms = v["ms"] if v else None
+                per_core = vms * threads if vms else None
+                lines.append(f"| {case['label']} | {proj} | {f1(vms, '.1f')} | {f1(per_core, '.1f')} | "
+                             f"{ems:.1f}{'*' if disturbed else ''} | {100 * runs[-1]['json']['hit_fraction']:.1f}% | "
+                             f"{f'{per_core / ems:.2f}×' if per_core else na} |")
+                log(dict(kind="embree_row", case=case["name"], projection=proj, voxkit_ms=vms, threads=threads,
+                         embree_ms=ems))
     notes = []
-    for tool, store in (("voxkit", vk), ("VTK", vt)):
+    for tool, store in (("voxkit", vk), ("VTK", vt), ("Embree", em)):
         shares = [r.get("others_cpu_share") for runs in store.values() for r in runs]
         shares = [x for x in shares if x is not None]
         if shares:

@@ -18,14 +18,15 @@
 #     and only when one of them is missing. Also `time` (GNU /usr/bin/time): compare_render.py
 #     takes each process's peak RSS from it.
 #   * PyPI, pinned: vtk==9.7.2 pyvista==0.49.1, and numpy, pynrrd (render_vtk.py's .nhdr/.nrrd
-#     loader), trimesh (its .binvox loader), pillow (its PNG writer).
+#     loader), trimesh (its .binvox loader), pillow (its PNG writer), embreex (Intel Embree's
+#     Python binding: scripts/embree_rays.py, compare_render.py --tools embree).
 # At the end it imports everything, renders one tiny off-screen frame through EGL and prints
 # the versions and the GL renderer string (expected: llvmpipe).
 set -euo pipefail
 
 VENV="${VOXKIT_PEER_VENV:-$HOME/.cache/voxkit-peers/venv}"
 PYTHON="${PYTHON:-python3}"
-PIP_PKGS=(vtk==9.7.2 pyvista==0.49.1 numpy pynrrd trimesh pillow)
+PIP_PKGS=(vtk==9.7.2 pyvista==0.49.1 numpy pynrrd trimesh pillow embreex==4.4.0.post1)
 DEB_PKGS=(libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 time)
 
 say() { printf '[setup_render_peer] %s\n' "$*" >&2; }

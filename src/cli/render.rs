@@ -12,7 +12,9 @@
 //! `voxels_visited`, `bricks_skipped`, `load_ms` (reading, and voxelizing a
 //! mesh), `prepare_ms` (render structures), `render_ms` (per frame; the
 //! median over `--turntable` frames and `--reps` repetitions), `frames`, `memory_bytes` (render structures
-//! plus image buffers), `peak_rss_mib` and, with `--measure`, the error
+//! plus image buffers), `camera` (the first frame's, in world coordinates:
+//! `eye`, `target`, `up`, its basis and `fov_y_deg` or `ortho_height`, enough
+//! to cast the same pixel rays elsewhere), `peak_rss_mib` and, with `--measure`, the error
 //! measures (`differing_pixels` against the 6-ray and, for meshes,
 //! `mesh_depth_mean`, `mesh_depth_max`, `silhouette_disagree`).
 
@@ -393,6 +395,35 @@ pub(crate) fn frame_camera(base: &Camera, axes: SceneAxes, i: u32, frames: u32) 
 }
 
 /// Runs `voxkit render`.
+/// The (first frame's) camera in world coordinates, so that other tools can
+/// cast the same pixel rays: pixel `(x, y)` of a `W×H` image looks along
+/// `f + r·n_x·s_r + u·n_y·s_u` from `eye` (perspective; orthographic: from
+/// `eye + r·n_x·s_r + u·n_y·s_u` along `f`), `n_x = 2(x + ½)/W − 1`,
+/// `n_y = 1 − 2(y + ½)/H`, with `(r, u, f)` the camera's basis and
+/// `s_u = tan(fov/2)` or `height/2`, `s_r = s_u·W/H`.
+fn camera_json(cam: &Camera) -> serde_json::Value {
+    let (r, u, f) = cam.basis();
+    let v = |d: DVec3| serde_json::json!([d.x, d.y, d.z]);
+    let mut j = serde_json::json!({
+        "eye": v(cam.eye),
+        "target": v(cam.target),
+        "up": v(cam.up),
+        "right_axis": v(r),
+        "up_axis": v(u),
+        "forward_axis": v(f),
+    });
+    let obj = j.as_object_mut().expect("json! of an object literal");
+    match cam.projection {
+        crate::camera::Projection::Perspective { fov_y_deg } => {
+            obj.insert("fov_y_deg".into(), fov_y_deg.into());
+        }
+        crate::camera::Projection::Orthographic { height } => {
+            obj.insert("ortho_height".into(), height.into());
+        }
+    }
+    j
+}
+
 pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let limit = MemoryLimit::new(args.max_memory.saturating_mul(1 << 20));
     let frames = check_frames(&args, limit)?;
@@ -583,6 +614,7 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "memory_bytes": renderer.heap_bytes() as u64 + w as u64 * h as u64 * 36,
     });
     let obj = j.as_object_mut().expect("json! of an object literal");
+    obj.insert("camera".into(), camera_json(&base_cam));
     obj.extend(info);
     obj.insert("warnings".into(), serde_json::json!(warnings));
     if let Renderer::Store(paged) = &renderer {

@@ -88,6 +88,56 @@ fn mesh_to_png_and_exr() {
             .all(|(c, d)| (c[3] == 1.0) == d.is_finite())
     );
     assert!(png.exists());
+    // The JSON camera casts the EXR's rays: every hit's depth along its
+    // pixel ray lands on the mesh's voxels (within the vertices' box grown
+    // by two voxels; the depth is world distance along the ray).
+    let c = &j["camera"];
+    let vec = |k: &str| -> [f64; 3] {
+        let a = c[k]
+            .as_array()
+            .unwrap_or_else(|| panic!("camera.{k} in {j}"));
+        std::array::from_fn(|i| a[i].as_f64().unwrap())
+    };
+    let (eye, r, u, f) = (
+        vec("eye"),
+        vec("right_axis"),
+        vec("up_axis"),
+        vec("forward_axis"),
+    );
+    let su = (c["fov_y_deg"].as_f64().unwrap().to_radians() * 0.5).tan();
+    let sr = su * 96.0 / 64.0;
+    let obj = std::fs::read_to_string(data("data/meshes/obj/spot.obj")).unwrap();
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for l in obj.lines().filter(|l| l.starts_with("v ")) {
+        let p: Vec<f64> = l[2..]
+            .split_whitespace()
+            .map(|x| x.parse().unwrap())
+            .collect();
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let voxel = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max) / 64.0;
+    let mut checked = 0;
+    for (i, &depth) in e.depth.iter().enumerate() {
+        if !depth.is_finite() {
+            continue;
+        }
+        let (x, y) = ((i % 96) as f64, (i / 96) as f64);
+        let (nx, ny) = (2.0 * (x + 0.5) / 96.0 - 1.0, 1.0 - 2.0 * (y + 0.5) / 64.0);
+        let d: [f64; 3] = std::array::from_fn(|k| f[k] + r[k] * nx * sr + u[k] * ny * su);
+        let len = d.iter().map(|v| v * v).sum::<f64>().sqrt();
+        for k in 0..3 {
+            let p = eye[k] + d[k] / len * f64::from(depth);
+            assert!(
+                p > lo[k] - 2.0 * voxel && p < hi[k] + 2.0 * voxel,
+                "pixel ({x}, {y}) lands off the mesh"
+            );
+        }
+        checked += 1;
+    }
+    assert!(checked > 500);
     std::fs::remove_dir_all(&d).unwrap();
 }
 
