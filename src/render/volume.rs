@@ -856,9 +856,9 @@ impl Accum for Composite<'_> {
         self.visit_run(&[(v, 0)], &run_s, &run_len).is_some()
     }
 
-    /// The run's opacities first (the transfer function per voxel, then
-    /// the opacity correction, whose arithmetic vectorises across the
-    /// run's voxels), then front-to-back accumulation in order.
+    /// The run's opacities first (the transfer function's and the
+    /// corrected ones, in lanes of 8 across the run's voxels), then
+    /// front-to-back accumulation in order.
     #[inline(always)]
     fn visit_run(
         &mut self,
