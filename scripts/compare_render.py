@@ -524,7 +524,8 @@ def main():
                 peer_mode = "surface" if case["binary"] else c["mode"]
                 rows.append(dict(case=case["name"], input=case["label"],
                                  mode=f"surface / {c['mode']}" if case["binary"] else c["mode"],
-                                 skip="yes" if c["skip"] else "no", voxkit=v, vtk=vtk_of.get(peer_mode)))
+                                 skip="yes" if c["skip"] else "no", voxkit=v,
+                                 vtk=None if c["ortho"] else vtk_of.get(peer_mode)))
         else:
             for m, s in vtk_of.items():
                 rows.append(dict(case=case["name"], input=case["label"], mode=m, skip="–", voxkit=None, vtk=s))

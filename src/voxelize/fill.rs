@@ -217,19 +217,31 @@ fn fill_layer(
                 }
             });
         }
-        for (key, rule) in bundle_rules {
-            let bx = key.x as usize;
+        let decide = |(key, rule): &(Voxel, BrickRule)| {
             let m = line_values(bundle, &ranges, *key, dims, value);
-            masks[bx] = match rule {
-                BrickRule::Refine => {
-                    let (mask, ambiguous) = refiner.refine(*key, &m);
-                    out.ambiguous += ambiguous;
-                    mask
-                }
+            match rule {
+                BrickRule::Refine => refiner.refine(*key, &m),
                 BrickRule::Uniform(offset) => {
-                    uniform_mask(*key, &m, *offset, surface, band, &mut out.ambiguous)
+                    let mut ambiguous = 0;
+                    let mask = uniform_mask(*key, &m, *offset, surface, band, &mut ambiguous);
+                    (mask, ambiguous)
                 }
+            }
+        };
+        // Refined bricks cost up to milliseconds each and crowd into the
+        // few layers near the holes: a row with any is decided in parallel
+        // (otherwise the layers alone were the units, and one thread was
+        // left finishing the heaviest). Each brick's result is its own.
+        let decided: Vec<(BrickMask, u64)> =
+            if bundle_rules.iter().any(|(_, r)| *r == BrickRule::Refine) {
+                bundle_rules.par_iter().map(decide).collect()
+            } else {
+                bundle_rules.iter().map(decide).collect()
             };
+        for ((key, _), (mask, ambiguous)) in bundle_rules.iter().zip(decided) {
+            let bx = key.x as usize;
+            masks[bx] = mask;
+            out.ambiguous += ambiguous;
             touched_lo = touched_lo.min(bx);
             touched_hi = touched_hi.max(bx + 1);
         }
