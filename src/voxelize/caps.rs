@@ -51,7 +51,8 @@ where
 {
     // Every use as (smaller, larger, ±1), sorted so that uses of one edge
     // are adjacent (a parallel sort beats a hash map on meshes of 10^5+).
-    let mut uses: Vec<(K, K, i8)> = Vec::new();
+    let triangles = triangles.into_iter();
+    let mut uses: Vec<(K, K, i8)> = Vec::with_capacity(3 * triangles.size_hint().0);
     for t in triangles {
         for i in 0..3 {
             let (a, b) = (t[i], t[(i + 1) % 3]);
@@ -216,16 +217,12 @@ pub fn boundary_cycles<K: Copy + Ord + Hash>(
     let mut sorted = edges.to_vec();
     sorted.sort_unstable();
     let edges = &sorted[..];
+    let g = OutEdges::new(edges);
     let mut used = vec![false; edges.len()];
-    // Out-edges of `v`: a contiguous range of the sorted list.
-    let out = |v: K| {
-        let s = edges.partition_point(|e| e.0 < v);
-        let t = s + edges[s..].partition_point(|e| e.0 == v);
-        s..t
-    };
     // An unused edge `a → b` not in `skip`.
-    let find = |used: &[bool], a: K, b: K, skip: &[usize]| -> Option<usize> {
-        out(a).find(|&i| !used[i] && edges[i].1 == b && !skip.contains(&i))
+    let find = |used: &[bool], a: u32, b: u32, skip: &[usize]| -> Option<usize> {
+        g.out(a)
+            .find(|&i| !used[i] && g.target[i] == b && !skip.contains(&i))
     };
     let mut cycles = Vec::new();
     // Triangles, then quadrilaterals.
@@ -234,13 +231,13 @@ pub fn boundary_cycles<K: Copy + Ord + Hash>(
             if used[i] {
                 continue;
             }
-            let (a, b) = edges[i];
+            let (a, b) = (g.source[i], g.target[i]);
             let mut found: Option<Vec<usize>> = None;
-            'search: for j in out(b) {
+            'search: for j in g.out(b) {
                 if used[j] || j == i {
                     continue;
                 }
-                let c = edges[j].1;
+                let c = g.target[j];
                 if len == 3 {
                     if c != a
                         && c != b
@@ -254,11 +251,11 @@ pub fn boundary_cycles<K: Copy + Ord + Hash>(
                 if c == a || c == b {
                     continue;
                 }
-                for k in out(c) {
+                for k in g.out(c) {
                     if used[k] || k == i || k == j {
                         continue;
                     }
-                    let d = edges[k].1;
+                    let d = g.target[k];
                     if d == a || d == b || d == c {
                         continue;
                     }
@@ -276,38 +273,104 @@ pub fn boundary_cycles<K: Copy + Ord + Hash>(
             }
         }
     }
-    // The rest: walks cut into cycles where they meet themselves.
-    let mut at: HashMap<K, usize, FxBuild> = HashMap::default();
+    // The rest: walks cut into cycles where they meet themselves. `at[v]`:
+    // the position of vertex `v` on the current path (`NOT_ON_PATH` off it).
+    const NOT_ON_PATH: u32 = u32::MAX;
+    let mut at = vec![NOT_ON_PATH; g.vertices.len()];
     for start in 0..edges.len() {
         if used[start] {
             continue;
         }
-        let mut path = vec![edges[start].0];
-        at.clear();
-        at.insert(edges[start].0, 0);
+        let mut path = vec![g.source[start]];
+        at[g.source[start] as usize] = 0;
         let mut next = Some(start);
         while let Some(e) = next {
             used[e] = true;
-            let (u, v) = edges[e];
-            if let Some(&i) = at.get(&v) {
+            let v = g.target[e];
+            let i = at[v as usize];
+            if i != NOT_ON_PATH {
                 // Back on the path: path[i..] is a cycle.
-                for w in &path[i + 1..] {
-                    at.remove(w);
+                for &w in &path[i as usize + 1..] {
+                    at[w as usize] = NOT_ON_PATH;
                 }
-                cycles.push(path.split_off(i));
+                let cycle = path.split_off(i as usize);
+                cycles.push(cycle.iter().map(|&w| g.vertices[w as usize]).collect());
                 path.push(v);
-                at.insert(v, i);
+                at[v as usize] = i;
             } else {
-                at.insert(v, path.len());
+                at[v as usize] = path.len() as u32;
                 path.push(v);
             }
-            next = out(v)
+            next = g
+                .out(v)
                 .filter(|&i| !used[i])
-                .min_by_key(|&i| (dist2(edges[i].1, u), i));
+                .min_by_key(|&i| (dist2(edges[i].1, edges[e].0), i));
         }
         debug_assert_eq!(path.len(), 1, "a balanced boundary closes every walk");
+        for &w in &path {
+            at[w as usize] = NOT_ON_PATH;
+        }
     }
     cycles
+}
+
+/// A sorted directed edge list as a dense graph: vertices numbered in key
+/// order, each edge's ends as numbers, and each vertex's out-edges as a
+/// range of the list (the list is sorted by source), so that following an
+/// edge costs no search.
+struct OutEdges<K> {
+    /// Vertex keys by number: every source, then targets that are no
+    /// source (none when the boundary is balanced).
+    vertices: Vec<K>,
+    /// `first[v]..first[v + 1]`: the out-edges of vertex `v`.
+    first: Vec<usize>,
+    source: Vec<u32>,
+    target: Vec<u32>,
+}
+
+impl<K: Copy + Ord> OutEdges<K> {
+    /// `edges` sorted.
+    fn new(edges: &[(K, K)]) -> Self {
+        let mut vertices: Vec<K> = Vec::new();
+        let mut first = Vec::new();
+        let mut source = Vec::with_capacity(edges.len());
+        for (i, e) in edges.iter().enumerate() {
+            if vertices.last() != Some(&e.0) {
+                vertices.push(e.0);
+                first.push(i);
+            }
+            source.push(vertices.len() as u32 - 1);
+        }
+        let sources = vertices.len();
+        first.push(edges.len());
+        let mut sinks: Vec<K> = edges
+            .iter()
+            .filter(|e| vertices.binary_search(&e.1).is_err())
+            .map(|e| e.1)
+            .collect();
+        sinks.sort_unstable();
+        sinks.dedup();
+        // Sinks have no out-edges: empty ranges at the end.
+        first.extend(std::iter::repeat_n(edges.len(), sinks.len()));
+        let target = edges
+            .iter()
+            .map(|e| match vertices.binary_search(&e.1) {
+                Ok(v) => v as u32,
+                Err(_) => (sources + sinks.binary_search(&e.1).unwrap_or(0)) as u32,
+            })
+            .collect();
+        vertices.extend(sinks);
+        OutEdges {
+            vertices,
+            first,
+            source,
+            target,
+        }
+    }
+
+    fn out(&self, v: u32) -> std::ops::Range<usize> {
+        self.first[v as usize]..self.first[v as usize + 1]
+    }
 }
 
 /// Closes an indexed mesh's holes: for each boundary component (by vertex

@@ -41,6 +41,7 @@
 //! (i128 throughout); larger triangles are rejected with
 //! [`VoxkitError::Unsupported`].
 
+use std::borrow::Cow;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
@@ -514,23 +515,9 @@ pub fn solid_interior_in(
         }
     }
     let mut stats = SolidStats::default();
-    // The triangles whose crossings can count in the region: their (y, z)
-    // box meets the region's lines and they start left of its far end.
-    let in_column = |t: &SurfaceTriangle| {
-        region.is_none_or(|(lo, hi)| {
-            let mn = |a: usize| t.iter().map(|p| p[a]).min().unwrap_or(0);
-            let mx = |a: usize| t.iter().map(|p| p[a]).max().unwrap_or(0);
-            let one = VOXEL_ONE;
-            mn(0) < i64::from(hi.x) * one
-                && (1..3).all(|a| mx(a) >= i64::from(lo[a]) * one && mn(a) < i64::from(hi[a]) * one)
-        })
-    };
-    let column = |ts: &[SurfaceTriangle]| -> Vec<SurfaceTriangle> {
-        ts.iter().copied().filter(|t| in_column(t)).collect()
-    };
     let out = match test {
         InsideTest::Parity => fill_interior(
-            &column(triangles),
+            &in_region_columns(triangles, region),
             dims,
             LineValue::Parity,
             &[],
@@ -546,7 +533,7 @@ pub fn solid_interior_in(
                 .copied()
                 .chain(caps.iter().map(|t| [t[0], t[2], t[1]]))
                 .collect();
-            let closed = column(&closed);
+            let closed = in_region_columns(&closed, region);
             if caps.is_empty() {
                 fill_interior(
                     &closed,
@@ -559,7 +546,7 @@ pub fn solid_interior_in(
                 )
             } else {
                 let ctx = Classifier {
-                    caps: WindingTree::new(&caps),
+                    caps: WindingTree::with_rim(&caps),
                     triangles,
                     mesh: std::sync::OnceLock::new(),
                     dims,
@@ -612,6 +599,26 @@ pub fn solid_interior_in(
         grid = crop(&grid, r);
     }
     Ok((grid, stats))
+}
+
+/// The triangles whose crossings can count in `region`: their (y, z) box
+/// meets the region's lines and they start left of its far end (all of
+/// them, borrowed, without a region).
+fn in_region_columns(
+    triangles: &[SurfaceTriangle],
+    region: Option<BrickBox>,
+) -> Cow<'_, [SurfaceTriangle]> {
+    let Some((lo, hi)) = region else {
+        return Cow::Borrowed(triangles);
+    };
+    let one = VOXEL_ONE;
+    let in_column = |t: &&SurfaceTriangle| {
+        let mn = |a: usize| t.iter().map(|p| p[a]).min().unwrap_or(0);
+        let mx = |a: usize| t.iter().map(|p| p[a]).max().unwrap_or(0);
+        mn(0) < i64::from(hi.x) * one
+            && (1..3).all(|a| mx(a) >= i64::from(lo[a]) * one && mn(a) < i64::from(hi[a]) * one)
+    };
+    Cow::Owned(triangles.iter().filter(in_column).copied().collect())
 }
 
 /// The bricks of `grid` inside the box `region`, whose min corner is

@@ -23,6 +23,7 @@
 //! meet the box, where `w` jumps and no bound holds.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::voxelize::caps::boundary_edges;
 pub use crate::voxelize::expansion::LocalExpansion;
@@ -250,7 +251,7 @@ pub struct Estimate {
     pub error: f64,
 }
 
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 struct Node {
     lo: DVec3,
     hi: DVec3,
@@ -289,22 +290,35 @@ impl WindingTree {
         let one = VOXEL_ONE as f64;
         let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
         let tri_f: Vec<[DVec3; 3]> = triangles
-            .iter()
+            .par_iter()
             .map(|t| t.map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / one))
             .collect();
-        let centroids: Vec<DVec3> = tri_f.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
+        let centroids: Vec<DVec3> = tri_f
+            .par_iter()
+            .map(|t| (t[0] + t[1] + t[2]) / 3.0)
+            .collect();
         let mut nodes = Vec::new();
         if !triangles.is_empty() {
-            build(&mut nodes, &mut order, 0, &tri_f, &centroids);
+            nodes = vec![Node::default(); node_count(triangles.len())];
+            build(&mut nodes, 0, &mut order, 0, &tri_f, &centroids);
         }
-        let tris = order.iter().map(|&i| tri_f[i as usize]).collect();
-        let fixed = order.iter().map(|&i| triangles[i as usize]).collect();
+        let tris = order.par_iter().map(|&i| tri_f[i as usize]).collect();
+        let fixed = order.par_iter().map(|&i| triangles[i as usize]).collect();
         WindingTree {
             nodes,
             tris,
             fixed,
             rim: std::sync::OnceLock::new(),
         }
+    }
+
+    /// [`WindingTree::new`] with its rim ([`RimTree`], which the box bounds
+    /// need) built at the same time, on another thread where there is one.
+    pub fn with_rim(triangles: &[SurfaceTriangle]) -> Self {
+        let (tree, rim) = rayon::join(|| WindingTree::new(triangles), || RimTree::new(triangles));
+        // The rim is the soup's boundary, whatever the triangles' order.
+        let _ = tree.rim.set(rim);
+        tree
     }
 
     /// Number of triangles.
@@ -725,13 +739,33 @@ fn build_rim(nodes: &mut Vec<RimNode>, segs: &mut [[DVec3; 2]], start: usize) ->
     me as u32
 }
 
+/// Nodes of the tree over `n` triangles (leaves of at most [`LEAF`], split
+/// at the median).
+fn node_count(n: usize) -> usize {
+    if n <= LEAF {
+        1
+    } else {
+        1 + node_count(n / 2) + node_count(n - n / 2)
+    }
+}
+
+/// Subtrees over more triangles than this are built in parallel.
+const PARALLEL_BUILD: usize = 4096;
+
+/// Builds the subtree over `order` (the triangles `start..` of the final
+/// order) into `nodes`, which holds exactly its [`node_count`] nodes in
+/// preorder, the first being node `id`: each subtree's slice is known in
+/// advance, so the two halves are built in parallel and the numbering is
+/// the sequential preorder's.
 fn build(
-    nodes: &mut Vec<Node>,
+    nodes: &mut [Node],
+    id: u32,
     order: &mut [u32],
     start: usize,
     tris: &[[DVec3; 3]],
     centroids: &[DVec3],
-) -> u32 {
+) {
+    debug_assert_eq!(nodes.len(), node_count(order.len()));
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     for &i in order.iter() {
         for p in &tris[i as usize] {
@@ -740,8 +774,8 @@ fn build(
         }
     }
     let pole = Multipole::of(order.iter().map(|&i| tris[i as usize]));
-    let me = nodes.len();
-    nodes.push(Node {
+    let (head, rest) = nodes.split_first_mut().expect("a subtree has a node");
+    *head = Node {
         lo,
         hi,
         pole,
@@ -749,20 +783,28 @@ fn build(
         end: (start + order.len()) as u32,
         left: 0,
         right: 0,
-    });
+    };
     if order.len() > LEAF {
         let axis = longest_axis(hi - lo);
         let mid = order.len() / 2;
         order.select_nth_unstable_by(mid, |&a, &b| {
             centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
         });
+        let parallel = order.len() > PARALLEL_BUILD;
         let (left, right) = order.split_at_mut(mid);
-        let l = build(nodes, left, start, tris, centroids);
-        let r = build(nodes, right, start + mid, tris, centroids);
-        nodes[me].left = l;
-        nodes[me].right = r;
+        let (left_nodes, right_nodes) = rest.split_at_mut(node_count(mid));
+        let (l, r) = (id + 1, id + 1 + left_nodes.len() as u32);
+        let mut build_left = || build(left_nodes, l, left, start, tris, centroids);
+        let mut build_right = || build(right_nodes, r, right, start + mid, tris, centroids);
+        if parallel {
+            rayon::join(build_left, build_right);
+        } else {
+            build_left();
+            build_right();
+        }
+        head.left = l;
+        head.right = r;
     }
-    me as u32
 }
 
 /// Triangle–box overlap by the 13 separating axes (Akenine-Möller), on the
