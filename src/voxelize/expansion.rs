@@ -104,56 +104,168 @@ impl LocalExpansion {
     /// of order `k` have norm `k!/|x|^{k+1}`; all over `4π`). The caller
     /// guarantees `|p − centre| > r + rho`.
     pub fn add_multipole(&mut self, m: &Multipole, rho: f64) {
-        let y = m.centre - self.centre;
-        let r = y.length();
-        let inv_r = 1.0 / r;
-        let inv_r2 = inv_r * inv_r;
-        let s3 = inv_r2 * inv_r;
-        let s5 = s3 * inv_r2;
-        let s7 = s5 * inv_r2;
-        let s9 = s7 * inv_r2;
-        let n = m.normal;
-        let ny = n.dot(y);
-        let s = m.moment;
-        let sy = s * y;
-        let ysy = y.dot(sy);
-        let tr = m.moment_trace();
-        let k = 1.0 / FOUR_PI;
-        // w ≈ −k (N_j ∂_j φ + S_jk ∂_jk φ)(y), φ = 1/|y|, y = p − q;
-        // ∂/∂q = −∂/∂y. The derivatives of φ to the fourth order, contracted
-        // with N (up to the third) and S (up to the fourth), are gathered by
-        // the tensors they multiply: y yᵀ, y vᵀ + v yᵀ, S and the identity.
-        self.value += k * ((ny + tr) * s3 - 3.0 * ysy * s5);
-        self.gradient +=
-            k * (y * ((3.0 * (ny + tr)) * s5 - 15.0 * ysy * s7) + sy * (6.0 * s5) - n * s3);
-        let a = 105.0 * ysy * s9 - 15.0 * (ny + tr) * s7;
-        let v = n * (3.0 * s5) - sy * (30.0 * s7);
-        let c = 3.0 * (ny + tr) * s5 - 15.0 * ysy * s7;
-        let s6 = 6.0 * s5;
-        let h =
-            |i: usize, j: usize| a * y[i] * y[j] + (v[i] * y[j] + v[j] * y[i]) + s6 * s.col(j)[i];
-        let hess = [
-            h(0, 0) + c,
-            h(1, 1) + c,
-            h(2, 2) + c,
-            h(0, 1),
-            h(1, 2),
-            h(2, 0),
-        ];
-        for (acc, v) in self.hessian.iter_mut().zip(hess) {
-            *acc -= k * v;
+        self.add_multipoles(&[m], rho);
+    }
+
+    /// [`LocalExpansion::add_multipole`] for each of `poles` in turn: the
+    /// same sums, bit for bit (each node's terms are computed by the same
+    /// operations, [`M2L_LANES`] nodes at a time in vector lanes, then added
+    /// in order).
+    pub fn add_multipoles(&mut self, poles: &[&Multipole], rho: f64) {
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = std::arch::is_x86_feature_detected!("avx2");
+        for chunk in poles.chunks(M2L_LANES) {
+            // Short chunks repeat their last node in the unused lanes.
+            let lanes: [&Multipole; M2L_LANES] =
+                std::array::from_fn(|l| chunk[l.min(chunk.len() - 1)]);
+            #[cfg(target_arch = "x86_64")]
+            let t = if avx2 {
+                // SAFETY: the CPU runs AVX2 (checked above); the kernel uses
+                // no intrinsics, only the wider registers.
+                unsafe { m2l_terms_avx2(self.centre, rho, &lanes) }
+            } else {
+                m2l_terms(self.centre, rho, &lanes)
+            };
+            #[cfg(not(target_arch = "x86_64"))]
+            let t = m2l_terms(self.centre, rho, &lanes);
+            for l in 0..chunk.len() {
+                self.value += t.value[l];
+                self.gradient += DVec3::new(t.gradient[0][l], t.gradient[1][l], t.gradient[2][l]);
+                for (acc, h) in self.hessian.iter_mut().zip(&t.hessian) {
+                    *acc -= h[l];
+                }
+                self.error += t.error[l];
+            }
         }
-        // Taylor remainders after degree 2, summed as series (see above):
-        // with `1 − u = (d − ρ)/d`, both over powers of `d − ρ`.
-        let gr = r - rho;
-        let inv_gr = 1.0 / gr;
-        let u = rho * inv_r;
-        let u3 = u * u * u;
-        let dipole = m.normal_length * u3 * (4.0 - 3.0 * u) * inv_gr * inv_gr;
-        let moment = m.first * u3 * (20.0 - 30.0 * u + 12.0 * u * u) * inv_gr * inv_gr * inv_gr;
-        self.error += k * (m.truncation(gr) + dipole + moment);
     }
 }
+
+/// Multipoles per call of the translation kernel ([`m2l_terms`]).
+pub const M2L_LANES: usize = 4;
+
+/// What [`LocalExpansion::add_multipole`] adds for each of [`M2L_LANES`]
+/// nodes: value, gradient, Hessian (subtracted) and error terms, by lane.
+struct M2lTerms {
+    value: [f64; M2L_LANES],
+    gradient: [[f64; M2L_LANES]; 3],
+    hessian: [[f64; M2L_LANES]; 6],
+    error: [f64; M2L_LANES],
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn m2l_terms_avx2(centre: DVec3, rho: f64, poles: &[&Multipole; M2L_LANES]) -> M2lTerms {
+    m2l_terms(centre, rho, poles)
+}
+
+/// The terms of [`LocalExpansion::add_multipole`] for `poles` seen from the
+/// box of radius `rho` about `centre`, one node per lane: the fields are
+/// gathered lane by lane, then every lane runs the same straight-line
+/// arithmetic (in the order of the scalar formulas below, so that each
+/// lane's terms are those of the scalar code, bit for bit), which the
+/// compiler turns into vector instructions.
+///
+/// With `y = p − c`, `r = |y|`, `sᵢ = r^−i`, `N` the dipole, `S` the moment
+/// and `t = tr S`: the value is `k((N·y + t)s₃ − 3(y·Sy)s₅)`, the gradient
+/// `k(y(3(N·y + t)s₅ − 15(y·Sy)s₇) + 6s₅ Sy − s₃N)`, and the Hessian `−k`
+/// times `a y yᵀ + (v yᵀ + y vᵀ) + 6s₅ S + c I` with `a = 105(y·Sy)s₉ −
+/// 15(N·y + t)s₇`, `v = 3s₅N − 30s₇ Sy`, `c = 3(N·y + t)s₅ − 15(y·Sy)s₇`
+/// (`k = 1/4π`; derivation and error terms at
+/// [`LocalExpansion::add_multipole`]).
+#[inline(always)]
+fn m2l_terms(centre: DVec3, rho: f64, poles: &[&Multipole; M2L_LANES]) -> M2lTerms {
+    let lane = |f: &dyn Fn(&Multipole) -> f64| Lanes(poles.map(f));
+    let y = [0, 1, 2].map(|i| lane(&|m| m.centre[i] - centre[i]));
+    let n = [0, 1, 2].map(|i| lane(&|m| m.normal[i]));
+    // `sc[i][j]` is `S_ij` (`moment.col(j)[i]`).
+    let sc = [0, 1, 2].map(|i| [0, 1, 2].map(|j| lane(&|m| m.moment.col(j)[i])));
+    let radius = lane(&|m| m.radius);
+    let k = Lanes::splat(1.0 / FOUR_PI);
+    let c = Lanes::splat;
+    let r = (y[0] * y[0] + y[1] * y[1] + y[2] * y[2]).sqrt();
+    let inv_r = c(1.0) / r;
+    let inv_r2 = inv_r * inv_r;
+    let s3 = inv_r2 * inv_r;
+    let s5 = s3 * inv_r2;
+    let s7 = s5 * inv_r2;
+    let s9 = s7 * inv_r2;
+    let ny = n[0] * y[0] + n[1] * y[1] + n[2] * y[2];
+    // S y, column by column (glam's order).
+    let sy = [0, 1, 2].map(|i| sc[i][0] * y[0] + sc[i][1] * y[1] + sc[i][2] * y[2]);
+    let ysy = y[0] * sy[0] + y[1] * sy[1] + y[2] * sy[2];
+    let tr = sc[0][0] + sc[1][1] + sc[2][2];
+    let value = k * ((ny + tr) * s3 - c(3.0) * ysy * s5);
+    let a1 = (c(3.0) * (ny + tr)) * s5 - c(15.0) * ysy * s7;
+    let gradient = [0, 1, 2].map(|i| k * (y[i] * a1 + sy[i] * (c(6.0) * s5) - n[i] * s3));
+    let a = c(105.0) * ysy * s9 - c(15.0) * (ny + tr) * s7;
+    let v = [0, 1, 2].map(|i| n[i] * (c(3.0) * s5) - sy[i] * (c(30.0) * s7));
+    let diag = c(3.0) * (ny + tr) * s5 - c(15.0) * ysy * s7;
+    let s6 = c(6.0) * s5;
+    let h = |i: usize, j: usize| a * y[i] * y[j] + (v[i] * y[j] + v[j] * y[i]) + s6 * sc[i][j];
+    let hessian = [
+        h(0, 0) + diag,
+        h(1, 1) + diag,
+        h(2, 2) + diag,
+        h(0, 1),
+        h(1, 2),
+        h(2, 0),
+    ]
+    .map(|x| k * x);
+    // Taylor remainders after degree 2 and the truncation at `r − ρ`.
+    let rho = c(rho);
+    let gr = r - rho;
+    let inv_gr = c(1.0) / gr;
+    let u = rho * inv_r;
+    let u3 = u * u * u;
+    let dipole = lane(&|m| m.normal_length) * u3 * (c(4.0) - c(3.0) * u) * inv_gr * inv_gr;
+    let moment = lane(&|m| m.first)
+        * u3
+        * (c(20.0) - c(30.0) * u + c(12.0) * u * u)
+        * inv_gr
+        * inv_gr
+        * inv_gr;
+    let g = gr - radius;
+    let truncation = lane(&|m| m.second) * (c(3.0) * gr - c(2.0) * radius) / (g * g * gr * gr * gr);
+    M2lTerms {
+        value: value.0,
+        gradient: gradient.map(|x| x.0),
+        hessian: hessian.map(|x| x.0),
+        error: (k * (truncation + dipole + moment)).0,
+    }
+}
+
+/// [`M2L_LANES`] `f64` values operated on lane by lane (each operation a
+/// loop the compiler turns into one vector instruction).
+#[derive(Clone, Copy)]
+struct Lanes([f64; M2L_LANES]);
+
+impl Lanes {
+    #[inline(always)]
+    fn splat(v: f64) -> Self {
+        Lanes([v; M2L_LANES])
+    }
+
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        Lanes(self.0.map(f64::sqrt))
+    }
+}
+
+macro_rules! lanes_op {
+    ($trait:ident, $f:ident, $op:tt) => {
+        impl std::ops::$trait for Lanes {
+            type Output = Lanes;
+            #[inline(always)]
+            fn $f(self, o: Lanes) -> Lanes {
+                Lanes(std::array::from_fn(|l| self.0[l] $op o.0[l]))
+            }
+        }
+    };
+}
+lanes_op!(Add, add, +);
+lanes_op!(Sub, sub, -);
+lanes_op!(Mul, mul, *);
+lanes_op!(Div, div, /);
 
 /// A cluster of triangles as seen from afar: the first two terms of the
 /// Taylor expansion of the kernel about the cluster's centre `p`.
@@ -369,6 +481,96 @@ mod tests {
             "median gain over the dipole bound {}",
             gain[gain.len() / 2]
         );
+    }
+
+    /// The glam form of one translation (the formulas of
+    /// [`LocalExpansion::add_multipole`] on vectors and matrices): the lane
+    /// kernel must give its terms bit for bit.
+    fn translate_glam(local: &mut LocalExpansion, m: &Multipole, rho: f64) {
+        let y = m.centre - local.centre;
+        let r = y.length();
+        let inv_r = 1.0 / r;
+        let inv_r2 = inv_r * inv_r;
+        let (s3, k) = (inv_r2 * inv_r, 1.0 / FOUR_PI);
+        let (s5, s7) = (s3 * inv_r2, s3 * inv_r2 * inv_r2);
+        let s9 = s7 * inv_r2;
+        let (n, s) = (m.normal, m.moment);
+        let (ny, sy) = (n.dot(y), s * y);
+        let (ysy, tr) = (y.dot(sy), m.moment_trace());
+        local.value += k * ((ny + tr) * s3 - 3.0 * ysy * s5);
+        local.gradient +=
+            k * (y * ((3.0 * (ny + tr)) * s5 - 15.0 * ysy * s7) + sy * (6.0 * s5) - n * s3);
+        let a = 105.0 * ysy * s9 - 15.0 * (ny + tr) * s7;
+        let v = n * (3.0 * s5) - sy * (30.0 * s7);
+        let c = 3.0 * (ny + tr) * s5 - 15.0 * ysy * s7;
+        let h = |i: usize, j: usize| {
+            a * y[i] * y[j] + (v[i] * y[j] + v[j] * y[i]) + 6.0 * s5 * s.col(j)[i]
+        };
+        let hess = [
+            h(0, 0) + c,
+            h(1, 1) + c,
+            h(2, 2) + c,
+            h(0, 1),
+            h(1, 2),
+            h(2, 0),
+        ];
+        for (acc, v) in local.hessian.iter_mut().zip(hess) {
+            *acc -= k * v;
+        }
+        let gr = r - rho;
+        let (inv_gr, u) = (1.0 / gr, rho * inv_r);
+        let u3 = u * u * u;
+        let dipole = m.normal_length * u3 * (4.0 - 3.0 * u) * inv_gr * inv_gr;
+        let moment = m.first * u3 * (20.0 - 30.0 * u + 12.0 * u * u) * inv_gr * inv_gr * inv_gr;
+        local.error += k * (m.truncation(gr) + dipole + moment);
+    }
+
+    /// Translations in lanes (any count, any CPU path) equal the glam form
+    /// one node at a time, bit for bit: batching changes no decision.
+    #[test]
+    fn translations_in_lanes_equal_one_at_a_time() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let bits = |l: &LocalExpansion| {
+            let mut v = vec![l.value, l.error];
+            v.extend(l.gradient.to_array());
+            v.extend(l.hessian);
+            v.into_iter().map(f64::to_bits).collect::<Vec<_>>()
+        };
+        for trial in 0..200 {
+            let count = 1 + trial % 23;
+            let poles: Vec<Multipole> = (0..count)
+                .map(|_| {
+                    let c = random_vec(&mut rng, 40.0);
+                    let tris: Vec<[DVec3; 3]> = (0..rng.random_range(1..9))
+                        .map(|_| [0; 3].map(|_| c + random_vec(&mut rng, 1.5)))
+                        .collect();
+                    Multipole::of(tris.iter().copied())
+                })
+                .collect();
+            let rho = [0.87, 2.6, 6.1][trial % 3];
+            let centre = random_vec(&mut rng, 1.0) + DVec3::new(100.0, 0.0, 0.0);
+            let refs: Vec<&Multipole> = poles.iter().collect();
+            let mut lanes = LocalExpansion::new(centre);
+            lanes.add_multipoles(&refs, rho);
+            let mut glam = LocalExpansion::new(centre);
+            for m in &poles {
+                translate_glam(&mut glam, m, rho);
+            }
+            assert_eq!(bits(&lanes), bits(&glam), "trial {trial}");
+            // The portable kernel, whatever the CPU.
+            let mut portable = LocalExpansion::new(centre);
+            for m in &poles {
+                let t = m2l_terms(centre, rho, &[m; M2L_LANES]);
+                portable.value += t.value[0];
+                portable.gradient +=
+                    DVec3::new(t.gradient[0][0], t.gradient[1][0], t.gradient[2][0]);
+                for (acc, h) in portable.hessian.iter_mut().zip(&t.hessian) {
+                    *acc -= h[0];
+                }
+                portable.error += t.error[0];
+            }
+            assert_eq!(bits(&portable), bits(&glam), "trial {trial}, portable");
+        }
     }
 
     /// Parent multipoles need not be built from children: a multipole is

@@ -178,6 +178,10 @@ fn near_kernel(
     }
 }
 
+/// Far nodes translated per call of [`LocalExpansion::add_multipoles`] in
+/// [`WindingTree::split`].
+const FAR_BATCH: usize = 16;
+
 /// Triangles per call of [`near_kernel`].
 const CHUNK: usize = 8;
 
@@ -503,11 +507,19 @@ impl WindingTree {
         let rho = (hi - lo).length() * 0.5;
         debug_assert_eq!(local.centre, c);
         let mut stack: Vec<u32> = candidates.to_vec();
+        // Far nodes in the order they are met, translated a batch at a time.
+        let mut far: [&Multipole; FAR_BATCH] = [&self.nodes[0].pole; FAR_BATCH];
+        let mut count = 0;
         while let Some(id) = stack.pop() {
             let n = &self.nodes[id as usize];
             let reach = (beta + 1.0) * (n.pole.radius + rho);
             if (n.pole.centre - c).length_squared() > reach * reach {
-                local.add_multipole(&n.pole, rho);
+                far[count] = &n.pole;
+                count += 1;
+                if count == FAR_BATCH {
+                    local.add_multipoles(&far, rho);
+                    count = 0;
+                }
             } else if n.left != 0 && (keep == NearNodes::Leaves || n.pole.radius > rho) {
                 stack.push(n.right);
                 stack.push(n.left);
@@ -515,6 +527,7 @@ impl WindingTree {
                 near.push(id);
             }
         }
+        local.add_multipoles(&far[..count], rho);
     }
 
     /// The triangles of `node` (as returned in [`FarField::near`]): a leaf's,
