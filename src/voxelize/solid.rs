@@ -58,7 +58,7 @@ use crate::voxelize::fill::{
 };
 use crate::voxelize::surface::{SurfaceTriangle, VOXEL_ONE};
 use crate::voxelize::winding::{
-    Estimate, LANES, LocalExpansion, NearLanes, NearNodes, ROUNDING_SLACK, WindingTree,
+    Estimate, FarField, LANES, LocalExpansion, NearLanes, NearNodes, ROUNDING_SLACK, WindingTree,
 };
 
 /// A centre is inside when its winding number is at least this.
@@ -398,6 +398,18 @@ const BRICK_BETAS: [f64; 6] = [0.75, 1.0, 1.5, 2.0, 2.5, 3.0];
 /// cube path (the bunny with 40% deleted at `-r 128`: 275k straddling
 /// centres at 0.1, 10k at 0.05).
 const LADDER_BAND: f64 = 0.05;
+
+/// The brick ladder's first stop: a brick's 4³ boxes are decided from a
+/// far field within this until one leaves more than [`RETRY_CUBES`] of its
+/// cubes straddling ½ (a looser bound's shorter near lists pay where few
+/// centres are near ½: the bunny ×4 with 20% removed).
+const LOOSE_BAND: f64 = 0.07;
+
+/// A 4³ box that leaves more straddling cubes than this at [`LOOSE_BAND`]
+/// sends its brick on up the ladder to [`LADDER_BAND`]: those cubes are
+/// decided again, and the brick's remaining boxes start there (where
+/// centres crowd near ½, as with 40% removed, the tight bound is cheaper).
+const RETRY_CUBES: usize = 1;
 
 /// Voxels whose winding number lies within this of ½ are counted as
 /// ambiguous ([`SolidStats::ambiguous`]): their verdict hangs on how the
@@ -834,61 +846,54 @@ impl BrickRefiner for Classifier<'_> {
         };
         let t = std::time::Instant::now();
         // The opening ratio grows until the far field's bound over the brick
-        // is below [`LADDER_BAND`]: where caps are large (holes
-        // everywhere) a looser bound would leave most centres straddling ½,
-        // and a longer near list in lanes costs less than deciding them
-        // cube by cube.
-        let mut bb = BRICK_BETAS[0];
-        let mut far = self.caps.far_field_keeping(blo, bhi, bb, NearNodes::Coarse);
-        for &beta in &BRICK_BETAS[1..] {
-            if far.local.error <= LADDER_BAND {
-                break;
+        // is below [`LOOSE_BAND`], then for the cubes left straddling ½ until
+        // it is below [`LADDER_BAND`]: where caps are large (holes
+        // everywhere) a loose bound leaves most centres straddling, and a
+        // longer near list in lanes costs less than deciding them cube by
+        // cube; where few centres are near ½ the loose bound's shorter lists
+        // pay.
+        let mut rung = 0;
+        let ladder = |rung: &mut usize, far: &mut FarField, band: f64| {
+            while far.local.error > band && *rung + 1 < BRICK_BETAS.len() {
+                *rung += 1;
+                *far = self
+                    .caps
+                    .far_field_keeping(blo, bhi, BRICK_BETAS[*rung], NearNodes::Coarse);
             }
-            bb = beta;
-            far = self.caps.far_field_keeping(blo, bhi, bb, NearNodes::Coarse);
+        };
+        let mut far = self
+            .caps
+            .far_field_keeping(blo, bhi, BRICK_BETAS[0], NearNodes::Coarse);
+        ladder(&mut rung, &mut far, LOOSE_BAND);
+        // The tight far field, once a 4³ box has shown that this brick's
+        // centres crowd near ½; from then on it serves the brick's other boxes.
+        let mut tight: Option<(FarField, usize)> = None;
+        if far.local.error <= LADDER_BAND {
+            tight = Some((far.clone(), rung));
         }
-        let (mut near1, mut near2) = (Vec::new(), Vec::new());
-        let mut cubes = Vec::with_capacity(64);
-        for c in 0..8 {
-            let lo1 = lo + Voxel::new(c & 1, (c >> 1) & 1, c >> 2) * 4;
-            let Some((b1lo, b1hi)) = centre_box(lo1, 4, self.dims) else {
-                continue;
-            };
-            let mut l1 = far.local.recentred((b1lo + b1hi) * 0.5);
-            near1.clear();
-            self.caps.split(
-                &far.near,
-                b1lo,
-                b1hi,
-                bb,
-                NearNodes::Coarse,
-                &mut l1,
-                &mut near1,
-            );
-            for g in 0..8 {
-                let lo2 = lo1 + Voxel::new(g & 1, (g >> 1) & 1, g >> 2) * 2;
-                let Some((b2lo, b2hi)) = centre_box(lo2, 2, self.dims) else {
-                    continue;
-                };
-                let mut l2 = l1.recentred((b2lo + b2hi) * 0.5);
-                let start = near2.len();
-                self.caps.split(
-                    &near1,
-                    b2lo,
-                    b2hi,
-                    bb,
-                    NearNodes::Leaves,
-                    &mut l2,
-                    &mut near2,
-                );
-                cubes.push((lo2, l2, start..near2.len()));
-            }
-        }
-        let t_far = t.elapsed();
+        let mut t_far = t.elapsed();
         let mut out = BrickOut::default();
-        for (lo2, local, range) in &cubes {
-            self.near_cube(lo, *lo2, local, &near2[range.clone()], m, &mut out);
+        for c in 0..8 {
+            if let Some((f, r)) = &tight {
+                t_far += self.box_cubes(lo, c, f, BRICK_BETAS[*r], None, m, &mut out);
+                continue;
+            }
+            let before = out.pending.len();
+            t_far += self.box_cubes(lo, c, &far, BRICK_BETAS[rung], None, m, &mut out);
+            if out.pending.len() - before > RETRY_CUBES {
+                let t_ladder = std::time::Instant::now();
+                let (mut f, mut r) = (far.clone(), rung);
+                ladder(&mut r, &mut f, LADDER_BAND);
+                t_far += t_ladder.elapsed();
+                let redo: Vec<Straddling> = out.pending.drain(before..).collect();
+                t_far += self.box_cubes(lo, c, &f, BRICK_BETAS[r], Some(&redo), m, &mut out);
+                tight = Some((f, r));
+            }
         }
+        if let Some((_, r)) = tight {
+            rung = r;
+        }
+        let bb = BRICK_BETAS[rung];
         let t_near = t.elapsed();
         let straddling: usize = out
             .pending
@@ -929,6 +934,84 @@ impl BrickRefiner for Classifier<'_> {
             p(done, self.bricks_total.load(Ordering::Relaxed));
         }
         (out.mask, out.ambiguous)
+    }
+}
+
+impl Classifier<'_> {
+    /// The 2³ cubes of the 4³ box `c` (0..8) of the brick at `lo` from the
+    /// brick's far field `far` (opening ratio `beta`): the 4³ and 2³ splits
+    /// (each sub-cube re-expands its parent's quadratic about its own
+    /// centre and accepts more nodes), then each cube's near leaves summed
+    /// in lanes and its centres decided ([`Classifier::near_cube`]). With
+    /// `only`, just those straddling cubes, whose open lanes are decided
+    /// again. Returns the time spent in the splits.
+    #[allow(clippy::too_many_arguments)]
+    fn box_cubes(
+        &self,
+        lo: Voxel,
+        c: i32,
+        far: &FarField,
+        beta: f64,
+        only: Option<&[Straddling]>,
+        m: &[Option<i32>; 512],
+        out: &mut BrickOut,
+    ) -> std::time::Duration {
+        let t = std::time::Instant::now();
+        let lo1 = lo + Voxel::new(c & 1, (c >> 1) & 1, c >> 2) * 4;
+        let Some((b1lo, b1hi)) = centre_box(lo1, 4, self.dims) else {
+            return t.elapsed();
+        };
+        let mut l1 = far.local.recentred((b1lo + b1hi) * 0.5);
+        let mut near1 = Vec::new();
+        self.caps.split(
+            &far.near,
+            b1lo,
+            b1hi,
+            beta,
+            NearNodes::Coarse,
+            &mut l1,
+            &mut near1,
+        );
+        let mut near2 = Vec::new();
+        let mut cubes = Vec::with_capacity(8);
+        for g in 0..8 {
+            let lo2 = lo1 + Voxel::new(g & 1, (g >> 1) & 1, g >> 2) * 2;
+            let Some((b2lo, b2hi)) = centre_box(lo2, 2, self.dims) else {
+                continue;
+            };
+            let redo = only.map(|cubes| cubes.iter().find(|c| c.lo2 == lo2));
+            if matches!(redo, Some(None)) {
+                continue;
+            }
+            let mut l2 = l1.recentred((b2lo + b2hi) * 0.5);
+            let start = near2.len();
+            self.caps.split(
+                &near1,
+                b2lo,
+                b2hi,
+                beta,
+                NearNodes::Leaves,
+                &mut l2,
+                &mut near2,
+            );
+            cubes.push((lo2, l2, start..near2.len(), redo.flatten().copied()));
+        }
+        let far_time = t.elapsed();
+        for (lo2, local, range, redo) in cubes {
+            let near = &near2[range];
+            match redo {
+                None => self.near_cube(lo, lo2, &local, near, m, out),
+                Some(cube) => {
+                    let (_, q) = cube_lanes(lo, lo2);
+                    let sums = self.caps.near_lanes(near, &q);
+                    let rest = self.decide_lanes(lo, cube, m, &local, sums, out);
+                    if rest.open.contains(&true) {
+                        out.pending.push(rest);
+                    }
+                }
+            }
+        }
+        far_time
     }
 }
 
