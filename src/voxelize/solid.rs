@@ -873,20 +873,39 @@ impl BrickRefiner for Classifier<'_> {
         }
         let mut t_far = t.elapsed();
         let mut out = BrickOut::default();
+        let mut scratch = CubeScratch::default();
         for c in 0..8 {
             if let Some((f, r)) = &tight {
-                t_far += self.box_cubes(lo, c, f, BRICK_BETAS[*r], None, m, &mut out);
+                t_far += self.box_cubes(lo, c, f, BRICK_BETAS[*r], None, m, &mut out, &mut scratch);
                 continue;
             }
             let before = out.pending.len();
-            t_far += self.box_cubes(lo, c, &far, BRICK_BETAS[rung], None, m, &mut out);
+            t_far += self.box_cubes(
+                lo,
+                c,
+                &far,
+                BRICK_BETAS[rung],
+                None,
+                m,
+                &mut out,
+                &mut scratch,
+            );
             if out.pending.len() - before > RETRY_CUBES {
                 let t_ladder = std::time::Instant::now();
                 let (mut f, mut r) = (far.clone(), rung);
                 ladder(&mut r, &mut f, LADDER_BAND);
                 t_far += t_ladder.elapsed();
                 let redo: Vec<Straddling> = out.pending.drain(before..).collect();
-                t_far += self.box_cubes(lo, c, &f, BRICK_BETAS[r], Some(&redo), m, &mut out);
+                t_far += self.box_cubes(
+                    lo,
+                    c,
+                    &f,
+                    BRICK_BETAS[r],
+                    Some(&redo),
+                    m,
+                    &mut out,
+                    &mut scratch,
+                );
                 tight = Some((f, r));
             }
         }
@@ -955,14 +974,22 @@ impl Classifier<'_> {
         only: Option<&[Straddling]>,
         m: &[Option<i32>; 512],
         out: &mut BrickOut,
+        scratch: &mut CubeScratch,
     ) -> std::time::Duration {
         let t = std::time::Instant::now();
+        let CubeScratch {
+            near1,
+            near2,
+            cubes,
+        } = scratch;
+        near1.clear();
+        near2.clear();
+        cubes.clear();
         let lo1 = lo + Voxel::new(c & 1, (c >> 1) & 1, c >> 2) * 4;
         let Some((b1lo, b1hi)) = centre_box(lo1, 4, self.dims) else {
             return t.elapsed();
         };
         let mut l1 = far.local.recentred((b1lo + b1hi) * 0.5);
-        let mut near1 = Vec::new();
         self.caps.split(
             &far.near,
             b1lo,
@@ -970,10 +997,8 @@ impl Classifier<'_> {
             beta,
             NearNodes::Coarse,
             &mut l1,
-            &mut near1,
+            near1,
         );
-        let mut near2 = Vec::new();
-        let mut cubes = Vec::with_capacity(8);
         for g in 0..8 {
             let lo2 = lo1 + Voxel::new(g & 1, (g >> 1) & 1, g >> 2) * 2;
             let Some((b2lo, b2hi)) = centre_box(lo2, 2, self.dims) else {
@@ -985,19 +1010,12 @@ impl Classifier<'_> {
             }
             let mut l2 = l1.recentred((b2lo + b2hi) * 0.5);
             let start = near2.len();
-            self.caps.split(
-                &near1,
-                b2lo,
-                b2hi,
-                beta,
-                NearNodes::Leaves,
-                &mut l2,
-                &mut near2,
-            );
+            self.caps
+                .split(near1, b2lo, b2hi, beta, NearNodes::Leaves, &mut l2, near2);
             cubes.push((lo2, l2, start..near2.len(), redo.flatten().copied()));
         }
         let far_time = t.elapsed();
-        for (lo2, local, range, redo) in cubes {
+        for (lo2, local, range, redo) in cubes.drain(..) {
             let near = &near2[range];
             match redo {
                 None => self.near_cube(lo, lo2, &local, near, m, out),
@@ -1013,6 +1031,22 @@ impl Classifier<'_> {
         }
         far_time
     }
+}
+
+/// Buffers reused by the 4³ boxes of a brick ([`Classifier::box_cubes`]):
+/// the box's near nodes, its cubes' near leaves, and the cubes (lowest
+/// voxel, expansion, range of `near2`, the straddling cube being decided
+/// again).
+#[derive(Default)]
+struct CubeScratch {
+    near1: Vec<u32>,
+    near2: Vec<u32>,
+    cubes: Vec<(
+        Voxel,
+        LocalExpansion,
+        std::ops::Range<usize>,
+        Option<Straddling>,
+    )>,
 }
 
 /// What deciding one refined brick produces, and the work it leaves.
