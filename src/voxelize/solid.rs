@@ -865,52 +865,25 @@ impl BrickRefiner for Classifier<'_> {
             .caps
             .far_field_keeping(blo, bhi, BRICK_BETAS[0], NearNodes::Coarse);
         ladder(&mut rung, &mut far, LOOSE_BAND);
-        // The tight far field, once a 4³ box has shown that this brick's
-        // centres crowd near ½; from then on it serves the brick's other boxes.
-        let mut tight: Option<(FarField, usize)> = None;
-        if far.local.error <= LADDER_BAND {
-            tight = Some((far.clone(), rung));
-        }
+        // Tight once a 4³ box has shown that this brick's centres crowd near
+        // ½ (or already so): from then on `far` serves the other boxes.
+        let mut tight = far.local.error <= LADDER_BAND;
         let mut t_far = t.elapsed();
         let mut out = BrickOut::default();
         let mut scratch = CubeScratch::default();
         for c in 0..8 {
-            if let Some((f, r)) = &tight {
-                t_far += self.box_cubes(lo, c, f, BRICK_BETAS[*r], None, m, &mut out, &mut scratch);
-                continue;
-            }
             let before = out.pending.len();
-            t_far += self.box_cubes(
-                lo,
-                c,
-                &far,
-                BRICK_BETAS[rung],
-                None,
-                m,
-                &mut out,
-                &mut scratch,
-            );
-            if out.pending.len() - before > RETRY_CUBES {
+            let beta = BRICK_BETAS[rung];
+            t_far += self.box_cubes(lo, c, &far, beta, None, m, &mut out, &mut scratch);
+            if !tight && out.pending.len() - before > RETRY_CUBES {
                 let t_ladder = std::time::Instant::now();
-                let (mut f, mut r) = (far.clone(), rung);
-                ladder(&mut r, &mut f, LADDER_BAND);
+                ladder(&mut rung, &mut far, LADDER_BAND);
                 t_far += t_ladder.elapsed();
                 let redo: Vec<Straddling> = out.pending.drain(before..).collect();
-                t_far += self.box_cubes(
-                    lo,
-                    c,
-                    &f,
-                    BRICK_BETAS[r],
-                    Some(&redo),
-                    m,
-                    &mut out,
-                    &mut scratch,
-                );
-                tight = Some((f, r));
+                let beta = BRICK_BETAS[rung];
+                t_far += self.box_cubes(lo, c, &far, beta, Some(&redo), m, &mut out, &mut scratch);
+                tight = true;
             }
-        }
-        if let Some((_, r)) = tight {
-            rung = r;
         }
         let bb = BRICK_BETAS[rung];
         let t_near = t.elapsed();
