@@ -43,7 +43,10 @@ rounds, so that a slow phase of the shared machine hits both tools):
 --projections perspective ortho: every voxkit configuration (and Embree) also with --ortho; VTK's
 script has no orthographic view, so those rows have no VTK column.
 
-Reported per row: voxkit `render_ms` (median over rounds), `differing_pixels`, VTK frame ms
+Reported per row: voxkit `render_ms` (median over rounds), for volumes the memory floor beside it
+(`floor_ms`: one parallel pass reading every stored sample, timed by `voxkit render --reps` after
+each of its frames, and the frame as a multiple of it: the figure that survives the machine's
+drift), `differing_pixels`, VTK frame ms
 (render + read-back, median of its R reps, then median over rounds), VTK set-up s (grid, plotter,
 actor, camera and the first frame), the ratio VTK/voxkit, and each tool's peak RSS (measured by
 /usr/bin/time around each process, see run(); render_vtk.py's own peak_rss_mib is in the JSON).
@@ -513,7 +516,10 @@ def main():
                     differing=measured.get(key), rays=runs[-1]["json"].get("rays"),
                     voxels_visited=runs[-1]["json"].get("voxels_visited"),
                     bricks_skipped=runs[-1]["json"].get("bricks_skipped"),
-                    memory_bytes=runs[-1]["json"].get("memory_bytes"))
+                    memory_bytes=runs[-1]["json"].get("memory_bytes"),
+                    floor_ms=get("floor_ms") if all("floor_ms" in r["json"] for r in runs) else None,
+                    over_floor=get("frame_over_floor") if all("frame_over_floor" in r["json"] for r in runs)
+                    else None)
 
     rows = []
     for case in cases:
@@ -537,9 +543,9 @@ def main():
         f"{a.rounds} interleaved round(s), medians over the quiet rounds (other processes took "
         f"< {100 * a.quiet_share:.0f}% of the CPUs), range in brackets; * = no quiet round, median over all.",
         "",
-        "| input | mode/ray | skip | voxkit ms/frame | differing px | VTK ms/frame | VTK set-up s | ratio VTK/voxkit "
-        "| voxkit load ms | voxkit peak RSS MiB | VTK peak RSS MiB |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| input | mode/ray | skip | voxkit ms/frame | floor ms | frame / floor | differing px | VTK ms/frame "
+        "| VTK set-up s | ratio VTK/voxkit | voxkit load ms | voxkit peak RSS MiB | VTK peak RSS MiB |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         v, t = r["voxkit"], r["vtk"]
@@ -556,7 +562,10 @@ def main():
         ratio = f"{tms / vms:.2f}×" if (vms and tms) else na
         diff = v["differing"] if v and v["differing"] is not None else None
         lines.append(
-            f"| {r['input']} | {r['mode']} | {r['skip']} | {vms_s} | {na if diff is None else f'{diff:,}'} | "
+            f"| {r['input']} | {r['mode']} | {r['skip']} | {vms_s} | "
+            f"{'–' if not v or v['floor_ms'] is None else format(v['floor_ms'], '.1f')} | "
+            f"{'–' if not v or v['over_floor'] is None else format(v['over_floor'], '.1f') + '×'} | "
+            f"{na if diff is None else f'{diff:,}'} | "
             f"{tms_s} | {f1(t['setup_s'] if t else None, '.2f')} | {ratio} | {f1(v['load_ms'] if v else None, '.1f')} | "
             f"{f1(v['rss'] if v else None, '.0f')} | {f1(t['rss'] if t else None, '.0f')} |")
         log(dict(kind="row", **{k: (str(x) if isinstance(x, Path) else x) for k, x in r.items()}))

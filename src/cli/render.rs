@@ -11,7 +11,11 @@
 //! `chunks_decoded` and `pages_built` instead of the voxel counts; `ray`, `skip`, `size`, `rays`, `hits`,
 //! `voxels_visited`, `bricks_skipped`, `load_ms` (reading, and voxelizing a
 //! mesh), `prepare_ms` (render structures), `render_ms` (per frame; the
-//! median over `--turntable` frames and `--reps` repetitions), `frames`, `memory_bytes` (render structures
+//! median over `--turntable` frames and `--reps` repetitions), for a
+//! volume with `--reps` 2 or more `floor_ms` (the memory floor: one
+//! parallel pass reading every stored sample, timed after each repetition,
+//! median) and `frame_over_floor` (`render_ms` over it, the figure that
+//! holds as the machine's speed drifts), `frames`, `memory_bytes` (render structures
 //! plus image buffers), `camera` (the first frame's, in world coordinates:
 //! `eye`, `target`, `up`, its basis and `fov_y_deg` or `ortho_height`, enough
 //! to cast the same pixel rays elsewhere), `peak_rss_mib` and, with `--measure`, the error
@@ -556,15 +560,26 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         b
     });
     let mut times = Vec::new();
+    // The memory floor beside the frames, interleaved with them.
+    let mut floors = Vec::new();
+    let mut floor = |renderer: &Renderer| {
+        if let (Renderer::Volume(vs, _), true) = (renderer, args.reps > 1) {
+            let t = Instant::now();
+            std::hint::black_box(vs.bricks().max_pass());
+            floors.push(ms(t));
+        }
+    };
     let mut first: Option<(RenderImage, RenderStats, Camera)> = None;
     let mut gif_frames = Vec::new();
     for i in 0..frames {
         let cam = frame_camera(&base_cam, axes, i, frames);
         let mut rendered = renderer.render(&xf, &cam, &opts)?;
         times.push(rendered.1.render_ms);
+        floor(&renderer);
         for _ in 1..args.reps {
             rendered = renderer.render(&xf, &cam, &opts)?;
             times.push(rendered.1.render_ms);
+            floor(&renderer);
         }
         let (img, stats) = rendered;
         let rgba = img.to_rgba8(opts.background);
@@ -614,6 +629,12 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "memory_bytes": renderer.heap_bytes() as u64 + w as u64 * h as u64 * 36,
     });
     let obj = j.as_object_mut().expect("json! of an object literal");
+    if !floors.is_empty() {
+        floors.sort_by(f64::total_cmp);
+        let floor_ms = floors[floors.len() / 2];
+        obj.insert("floor_ms".into(), floor_ms.into());
+        obj.insert("frame_over_floor".into(), (render_ms / floor_ms).into());
+    }
     obj.insert("camera".into(), camera_json(&base_cam));
     obj.extend(info);
     obj.insert("warnings".into(), serde_json::json!(warnings));

@@ -289,6 +289,56 @@ fn volumes_from_detached_headers() {
     std::fs::remove_dir_all(&d).unwrap();
 }
 
+/// `--reps` on a volume times the memory floor beside the frames: `floor_ms`
+/// and `frame_over_floor` (the frame's median over the floor's); a single
+/// render and a voxel grid have neither.
+#[test]
+fn volume_reps_report_the_memory_floor() {
+    let d = tmp("floor");
+    let ct = data("data/volumes/headsq_quarter/headsq_quarter.nhdr");
+    let run = |input: &str, reps: &str| {
+        json(&voxkit(&[
+            "render",
+            input,
+            "-o",
+            s(&d.join("f.png")),
+            "--size",
+            "32x32",
+            "--reps",
+            reps,
+            "--json",
+            "--force",
+        ]))
+    };
+    let j = run(&ct, "3");
+    let (frame, floor) = (
+        j["render_ms"].as_f64().unwrap(),
+        j["floor_ms"].as_f64().unwrap(),
+    );
+    assert!(floor > 0.0, "{j}");
+    let over = j["frame_over_floor"].as_f64().unwrap();
+    assert!((over - frame / floor).abs() <= 1e-9 * over, "{j}");
+    let single = run(&ct, "1");
+    assert!(single.get("floor_ms").is_none() && single.get("frame_over_floor").is_none());
+    let grid = json(&voxkit(&[
+        "render",
+        &data("data/meshes/obj/spot.obj"),
+        "-r",
+        "32",
+        "-o",
+        s(&d.join("g.png")),
+        "--size",
+        "32x32",
+        "--reps",
+        "2",
+        "--json",
+        "--force",
+    ]));
+    assert_eq!(grid["kind"], "grid");
+    assert!(grid.get("floor_ms").is_none(), "{grid}");
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
 /// Bad input: exit 2, one line naming the problem, no output file.
 #[test]
 fn bad_input_exits_2_without_output() {
