@@ -1,14 +1,17 @@
 //! The far field of triangle clusters for the winding number, with rigorous
-//! error bounds: each cluster's [`Multipole`] (its dipole and first moment,
-//! second order as in Barill et al. 2018) and, over a box, the fast multipole
-//! method's *local* expansion ([`LocalExpansion`]): one degree-2 polynomial
-//! about the box's centre that serves every box inside it
-//! ([`LocalExpansion::recentred`]).
+//! error bounds: each cluster's [`Multipole`] (its dipole, first moment and
+//! second moment: third order, one beyond Barill et al. 2018) and, over a
+//! box, the fast multipole method's *local* expansion ([`LocalExpansion`]):
+//! one degree-2 polynomial about the box's centre that serves every box
+//! inside it ([`LocalExpansion::recentred`]).
 //!
-//! The second-order term is what makes tight bounds affordable: a cluster of
-//! radius `r` at distance `g` errs by `O(A r²/g⁴)` instead of the dipole's
-//! `O(A r/g³)`, so a given bound comes at a smaller opening ratio, with fewer
-//! triangles left to sum one by one.
+//! The higher terms are what make tight bounds affordable: a cluster of
+//! radius `r` at distance `g` errs by `O(A r³/g⁵)` with three terms,
+//! `O(A r²/g⁴)` with two and `O(A r/g³)` with the dipole alone, so a given
+//! bound comes at a smaller opening ratio, with fewer triangles left to sum
+//! one by one. The truncation dominated the bricks' bounds with two terms
+//! (twenty times the Taylor remainders on the finest holed meshes), hence
+//! the third.
 
 use glam::{DMat3, DVec3};
 
@@ -19,13 +22,13 @@ const FOUR_PI: f64 = 4.0 * std::f64::consts::PI;
 /// of its error over the whole box.
 ///
 /// For a node's [`Multipole`] (centre `p`, radius `r`) seen from the box of
-/// centre `c` and radius `ρ` (half-diagonal) at `d = |p − c|`, three errors
+/// centre `c` and radius `ρ` (half-diagonal) at `d = |p − c|`, four errors
 /// are bounded ([`LocalExpansion::add_multipole`]): the multipole's
 /// truncation over the box, and the Taylor remainders after degree 2 of its
-/// two terms. The `k`-th derivative tensor of `1/|x|` has norm at most
+/// three terms. The `k`-th derivative tensor of `1/|x|` has norm at most
 /// `k!/|x|^{k+1}` (Legendre polynomials are bounded by 1, and a symmetric
-/// tensor's norm is its largest value on the diagonal), and both terms are
-/// contractions of such derivatives.
+/// tensor's norm is its largest value on the diagonal), and every term is a
+/// contraction of such derivatives.
 ///
 /// ```
 /// use glam::DVec3;
@@ -91,16 +94,19 @@ impl LocalExpansion {
         }
     }
 
-    /// Adds a node's multipole (dipole and first-moment term, see
+    /// Adds a node's multipole (dipole, first- and second-moment terms, see
     /// [`Multipole`]) as seen from a box of radius `rho` about the centre,
-    /// with its three error terms over the box: the multipole's truncation
+    /// with its four error terms over the box: the multipole's truncation
     /// ([`Multipole::truncation`] at the box's nearest distance `d − ρ`),
-    /// and the Taylor remainders after degree 2 of its two parts. With
+    /// and the Taylor remainders after degree 2 of its three parts. With
     /// `u = ρ/d`: the dipole part's `k`-th Taylor term is
     /// `D^{k+1}φ[N, h^k]/k!`, at most `(k+1)|N| ρ^k / d^{k+2}`, summing over
     /// `k ≥ 3` to `|N| u³ (4 − 3u) / ((1 − u)² d²)`; the moment part's is at
     /// most `(k+1)(k+2) M₁ ρ^k / d^{k+3}`, summing to
-    /// `M₁ u³ (20 − 30u + 12u²) / ((1 − u)³ d³)` (derivatives of `1/|x|`
+    /// `M₁ u³ (20 − 30u + 12u²) / ((1 − u)³ d³)`; the third part's (`T`
+    /// contracted with `D^{k+3}φ`, `|T(a, b, c)| ≤ S₂` for unit vectors) at
+    /// most `(S₂/2)(k+1)(k+2)(k+3) ρ^k / d^{k+4}`, summing to
+    /// `(S₂/2) u³ (120 − 270u + 216u² − 60u³) / ((1 − u)⁴ d⁴)` (derivatives of `1/|x|`
     /// of order `k` have norm `k!/|x|^{k+1}`; all over `4π`). The caller
     /// guarantees `|p − centre| > r + rho`.
     pub fn add_multipole(&mut self, m: &Multipole, rho: f64) {
@@ -211,6 +217,51 @@ fn m2l_terms(centre: DVec3, rho: f64, poles: &[&Multipole; M2L_LANES]) -> M2lTer
         h(2, 0),
     ]
     .map(|x| k * x);
+    // The third-order term `f = (k/2)(15 P s₇ − 9 L s₅)` with `P = T(y,y,y)`,
+    // `L = τ·y`, `v = T(y,y,·)`, `W = T(y,·,·)`: value `f`, gradient `−∇f`,
+    // Hessian `∇²f` (`∇P = 3v`, `∇²P = 6W`).
+    let t = std::array::from_fn::<Lanes, 10, _>(|i| lane(&|m| m.third[i]));
+    let w = [
+        t[0] * y[0] + t[3] * y[1] + t[4] * y[2],
+        t[5] * y[0] + t[1] * y[1] + t[7] * y[2],
+        t[6] * y[0] + t[8] * y[1] + t[2] * y[2],
+        t[3] * y[0] + t[5] * y[1] + t[9] * y[2],
+        t[9] * y[0] + t[7] * y[1] + t[8] * y[2],
+        t[4] * y[0] + t[9] * y[1] + t[6] * y[2],
+    ];
+    let tv = [
+        w[0] * y[0] + w[3] * y[1] + w[5] * y[2],
+        w[3] * y[0] + w[1] * y[1] + w[4] * y[2],
+        w[5] * y[0] + w[4] * y[1] + w[2] * y[2],
+    ];
+    let p3 = tv[0] * y[0] + tv[1] * y[1] + tv[2] * y[2];
+    let tau = [0, 1, 2].map(|i| lane(&|m| m.third_trace[i]));
+    let l3 = tau[0] * y[0] + tau[1] * y[1] + tau[2] * y[2];
+    let s11 = s9 * inv_r2;
+    let half_k = c(0.5) * k;
+    let value3 = half_k * (c(15.0) * p3 * s7 - c(9.0) * l3 * s5);
+    let gradient3 = [0, 1, 2].map(|i| {
+        half_k
+            * (c(9.0) * (tau[i] * s5 - c(5.0) * l3 * y[i] * s7)
+                - c(15.0) * (c(3.0) * tv[i] * s7 - c(7.0) * p3 * y[i] * s9))
+    });
+    let diag3 = c(15.0) * (c(-7.0) * p3 * s9) - c(9.0) * (c(-5.0) * l3 * s7);
+    let h3 = |i: usize, j: usize, wij: Lanes| {
+        c(15.0)
+            * (c(6.0) * wij * s7 - c(21.0) * (tv[i] * y[j] + y[i] * tv[j]) * s9
+                + c(63.0) * p3 * y[i] * y[j] * s11)
+            - c(9.0)
+                * (c(35.0) * l3 * y[i] * y[j] * s9 - c(5.0) * (tau[i] * y[j] + y[i] * tau[j]) * s7)
+    };
+    let hessian3 = [
+        h3(0, 0, w[0]) + diag3,
+        h3(1, 1, w[1]) + diag3,
+        h3(2, 2, w[2]) + diag3,
+        h3(0, 1, w[3]),
+        h3(1, 2, w[4]),
+        h3(2, 0, w[5]),
+    ]
+    .map(|x| half_k * x);
     // Taylor remainders after degree 2 and the truncation at `r − ρ`.
     let rho = c(rho);
     let gr = r - rho;
@@ -224,13 +275,23 @@ fn m2l_terms(centre: DVec3, rho: f64, poles: &[&Multipole; M2L_LANES]) -> M2lTer
         * inv_gr
         * inv_gr
         * inv_gr;
+    // The third-order term's `m`-th Taylor term is at most
+    // `(S₂/2)(m+1)(m+2)(m+3) ρ^m / d^{m+4}`; summed over `m ≥ 3`,
+    // `(S₂/2) u³ (120 − 270u + 216u² − 60u³) / ((1 − u)⁴ d⁴)`.
+    let inv_gr2 = inv_gr * inv_gr;
+    let third = c(0.5)
+        * lane(&|m| m.second)
+        * u3
+        * (c(120.0) - c(270.0) * u + c(216.0) * u * u - c(60.0) * u3)
+        * (inv_gr2 * inv_gr2);
     let g = gr - radius;
-    let truncation = lane(&|m| m.second) * (c(3.0) * gr - c(2.0) * radius) / (g * g * gr * gr * gr);
+    let truncation =
+        lane(&|m| m.cubic) * (c(4.0) * gr - c(3.0) * radius) / (g * g * (gr * gr) * (gr * gr));
     M2lTerms {
-        value: value.0,
-        gradient: gradient.map(|x| x.0),
-        hessian: hessian.map(|x| x.0),
-        error: (k * (truncation + dipole + moment)).0,
+        value: (value + value3).0,
+        gradient: [0, 1, 2].map(|i| (gradient[i] + gradient3[i]).0),
+        hessian: [0, 1, 2, 3, 4, 5].map(|i| (hessian[i] - hessian3[i]).0),
+        error: (k * (truncation + dipole + moment + third)).0,
     }
 }
 
@@ -267,17 +328,21 @@ lanes_op!(Sub, sub, -);
 lanes_op!(Mul, mul, *);
 lanes_op!(Div, div, /);
 
-/// A cluster of triangles as seen from afar: the first two terms of the
+/// A cluster of triangles as seen from afar: the first three terms of the
 /// Taylor expansion of the kernel about the cluster's centre `p`.
 ///
 /// `w(q) = (1/4π) Σ_t ∫_t n_t · (x − q)/|x − q|³ dA`; expanding the kernel
-/// in `x` about `p` to first order gives the dipole `N = Σ_t A_t` (area
-/// vectors) and the moment `M = Σ_t A_t (c_t − p)ᵀ` (`c_t` the centroids:
+/// in `x` about `p` to second order gives the dipole `N = Σ_t A_t` (area
+/// vectors), the moment `M = Σ_t A_t (c_t − p)ᵀ` (`c_t` the centroids:
 /// exact, the integrand being linear), of which only the symmetric part
-/// counts. Summing the rest of the Taylor series, the truncation error at
-/// distance `D` from `p` is at most `S₂ (3 − 2t)/(4π (1 − t)² D⁴)`,
-/// `t = r / D`, with `S₂ = Σ_t ∫_t |x − p|² dA` ([`Multipole::truncation`]):
-/// `O(A r²/D⁴)`.
+/// counts, and the second moment `T_ijk = Σ_t ∫_t n_i h_j h_k dA`
+/// (`h = x − p`; exact from the corners, `∫_t h hᵀ dA = (A/12)(Σ u uᵀ +
+/// (Σ u)(Σ u)ᵀ)`), of which only the fully symmetric part counts. Its
+/// share of `w` at `y = p − q` is `(15 T(y,y,y)/|y|⁷ − 9 τ·y/|y|⁵)/8π`
+/// (`τ_m = Σ_i T_iim`). Summing the rest of the Taylor series, the
+/// truncation error at distance `D` from `p` is at most
+/// `S₃ (4 − 3t)/(4π (1 − t)² D⁵)`, `t = r / D`, with
+/// `S₃ ≥ Σ_t ∫_t |x − p|³ dA` ([`Multipole::truncation`]): `O(A r³/D⁵)`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Multipole {
     /// Expansion point `p` (the area-weighted centroid).
@@ -294,8 +359,54 @@ pub struct Multipole {
     pub moment: DMat3,
     /// `M₁ = Σ_t |A_t| |c_t − p|` (bounds the nuclear norm of `M`).
     pub first: f64,
-    /// `S₂ = Σ_t ∫_t |x − p|² dA`.
+    /// `S₂ = Σ_t ∫_t |x − p|² dA` (bounds the third-order term's norm).
     pub second: f64,
+    /// The third-order moment `T_ijk = Σ_t ∫_t n_i h_j h_k dA` (`h = x − p`,
+    /// `n` the unit normal), fully symmetrised (only that part meets the
+    /// symmetric derivative tensors), by [`sym3`] slot.
+    pub third: [f64; 10],
+    /// `τ_m = Σ_i T_iim` of the symmetrised `T`.
+    pub third_trace: DVec3,
+    /// `S₃ ≥ Σ_t ∫_t |x − p|³ dA` (each triangle's `∫ |h|² dA` times its
+    /// farthest corner's distance).
+    pub cubic: f64,
+}
+
+/// The slot of the symmetric 3-tensor entry `(i, j, k)` in
+/// [`Multipole::third`]: `xxx yyy zzz xxy xxz xyy xzz yyz yzz xyz`.
+pub const fn sym3(i: usize, j: usize, k: usize) -> usize {
+    // Counts of each axis identify the entry.
+    let c = [
+        (i == 0) as usize + (j == 0) as usize + (k == 0) as usize,
+        (i == 1) as usize + (j == 1) as usize + (k == 1) as usize,
+        (i == 2) as usize + (j == 2) as usize + (k == 2) as usize,
+    ];
+    match c {
+        [3, 0, 0] => 0,
+        [0, 3, 0] => 1,
+        [0, 0, 3] => 2,
+        [2, 1, 0] => 3,
+        [2, 0, 1] => 4,
+        [1, 2, 0] => 5,
+        [1, 0, 2] => 6,
+        [0, 2, 1] => 7,
+        [0, 1, 2] => 8,
+        _ => 9,
+    }
+}
+
+/// `W = T·y` (`W_mn = Σ_k T_mnk y_k`) of a symmetric 3-tensor by [`sym3`]
+/// slot, as `xx yy zz xy yz zx`.
+#[inline(always)]
+fn third_times(t: &[f64; 10], y: DVec3) -> [f64; 6] {
+    [
+        t[0] * y.x + t[3] * y.y + t[4] * y.z,
+        t[5] * y.x + t[1] * y.y + t[7] * y.z,
+        t[6] * y.x + t[8] * y.y + t[2] * y.z,
+        t[3] * y.x + t[5] * y.y + t[9] * y.z,
+        t[9] * y.x + t[7] * y.y + t[8] * y.z,
+        t[4] * y.x + t[9] * y.y + t[6] * y.z,
+    ]
 }
 
 impl Multipole {
@@ -320,13 +431,13 @@ impl Multipole {
         } else {
             (lo + hi) * 0.5
         };
-        let (mut radius, mut first, mut second) = (0.0f64, 0.0, 0.0);
+        let (mut radius, mut first, mut second, mut cubic) = (0.0f64, 0.0, 0.0, 0.0);
+        let mut third = [0.0; 10];
         let mut m = DMat3::ZERO;
         for t in tris {
             let u = t.map(|p| p - centre);
-            for p in u {
-                radius = radius.max(p.length());
-            }
+            let far = u.iter().map(|p| p.length()).fold(0.0, f64::max);
+            radius = radius.max(far);
             let n = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]);
             let a = n.length();
             let c = (u[0] + u[1] + u[2]) / 3.0;
@@ -335,11 +446,32 @@ impl Multipole {
             first += a * c.length();
             // ∫_t x xᵀ dA = A/12 (Σ u uᵀ + (Σ u)(Σ u)ᵀ), traced.
             let su = u[0] + u[1] + u[2];
-            second += a / 12.0
+            let spread = a / 12.0
                 * (u[0].length_squared()
                     + u[1].length_squared()
                     + u[2].length_squared()
                     + su.length_squared());
+            second += spread;
+            cubic += far * spread;
+            // ∫_t h hᵀ dA = (A/12)(Σ u uᵀ + (Σ u)(Σ u)ᵀ); with the area
+            // vector `n` (= A n̂) the 1/A cancels. `q` is 12 times that
+            // (`xx yy zz xy yz zx`), the symmetrisation's 1/3 and the 1/12
+            // applied once at the end.
+            let qq = |j: usize, k: usize| {
+                u[0][j] * u[0][k] + u[1][j] * u[1][k] + u[2][j] * u[2][k] + su[j] * su[k]
+            };
+            let q = [qq(0, 0), qq(1, 1), qq(2, 2), qq(0, 1), qq(1, 2), qq(2, 0)];
+            let (nx, ny, nz) = (n.x, n.y, n.z);
+            third[0] += 3.0 * nx * q[0];
+            third[1] += 3.0 * ny * q[1];
+            third[2] += 3.0 * nz * q[2];
+            third[3] += nx * q[3] + nx * q[3] + ny * q[0];
+            third[4] += nx * q[5] + nx * q[5] + nz * q[0];
+            third[5] += nx * q[1] + ny * q[3] + ny * q[3];
+            third[6] += nx * q[2] + nz * q[5] + nz * q[5];
+            third[7] += ny * q[4] + ny * q[4] + nz * q[1];
+            third[8] += ny * q[2] + nz * q[4] + nz * q[4];
+            third[9] += nx * q[4] + ny * q[5] + nz * q[3];
         }
         Multipole {
             centre,
@@ -351,6 +483,13 @@ impl Multipole {
             moment: (m + m.transpose()) * 0.5,
             first,
             second: second * (1.0 + 1e-12),
+            third: third.map(|t| t / 36.0),
+            third_trace: DVec3::new(
+                third[0] + third[5] + third[6],
+                third[3] + third[1] + third[8],
+                third[4] + third[7] + third[2],
+            ) / 36.0,
+            cubic: cubic * (1.0 + 1e-12),
         }
     }
 
@@ -371,32 +510,46 @@ impl Multipole {
         }
         let s3 = 1.0 / (r2 * r);
         let ysy = y.dot(self.moment * y);
-        let value =
-            (self.normal.dot(y) * s3 - (3.0 * ysy / r2 - self.moment_trace()) * s3) / FOUR_PI;
+        let (s5, s7) = (s3 / r2, s3 / (r2 * r2));
+        let cube = self.third_cubed(y);
+        let third = 0.5 * (15.0 * cube * s7 - 9.0 * self.third_trace.dot(y) * s5);
+        let value = (self.normal.dot(y) * s3 - (3.0 * ysy / r2 - self.moment_trace()) * s3 + third)
+            / FOUR_PI;
         Some((value, self.truncation(r) / FOUR_PI))
     }
 
+    /// `T(y, y, y)` of the symmetrised third moment.
+    fn third_cubed(&self, y: DVec3) -> f64 {
+        let w = third_times(&self.third, y);
+        let v = DVec3::new(
+            w[0] * y.x + w[3] * y.y + w[5] * y.z,
+            w[3] * y.x + w[1] * y.y + w[4] * y.z,
+            w[5] * y.x + w[4] * y.y + w[2] * y.z,
+        );
+        v.dot(y)
+    }
+
     /// `4π` times the bound of the truncation error at every point at least
-    /// `dist > radius` from the centre: `S₂ (3 − 2t) / ((1 − t)² D⁴)`,
+    /// `dist > radius` from the centre: `S₃ (4 − 3t) / ((1 − t)² D⁵)`,
     /// `t = radius / D`, `D = dist`.
     ///
     /// Why: with `y = p − q` and `h = x − p`, the Taylor series of
     /// `1/|y + h|` in `h` has homogeneous terms `H_l(h) = D^l φ(y)[h^l]/l!`
-    /// (`φ = 1/|·|`), and the kernel `n·∇_h` of the first two (`l = 1, 2`)
-    /// is what the dipole and moment sum. The rest is
-    /// `Σ_{l≥3} D^l φ(y)[n, h^{l−1}]/(l−1)!`, and since the symmetric tensor
-    /// `D^l φ(y)` has norm `l!/|y|^{l+1}` (its largest directional
-    /// derivative, `l! P_l / |y|^{l+1}` with `|P_l| ≤ 1`), each term is at
-    /// most `l |h|^{l−1} / D^{l+1}`. Summed, `Σ_{l≥3} l t^{l−1}
-    /// = t² (3 − 2t)/(1 − t)²` with `t = |h|/D < 1`; over the cluster,
-    /// `(3 − 2t)/(1 − t)²` grows with `|h| ≤ radius`, so the integral is at
-    /// most `S₂ (3 − 2t)/((1 − t)² D⁴)`. The plain Lagrange remainder,
-    /// `3 S₂ / (D − radius)⁴`, is `3 / ((3 − 2t)(1 − t)²)` times larger:
-    /// 2.1× at `t = ¼`, 3.8× at `t = 0.4`.
+    /// (`φ = 1/|·|`), and the kernel `n·∇_h` of the first three
+    /// (`l = 1, 2, 3`) is what the dipole, the moment and the third-order
+    /// term sum. The rest is `Σ_{l≥4} D^l φ(y)[n, h^{l−1}]/(l−1)!`, and
+    /// since the symmetric tensor `D^l φ(y)` has norm `l!/|y|^{l+1}` (its
+    /// largest directional derivative, `l! P_l / |y|^{l+1}` with
+    /// `|P_l| ≤ 1`), each term is at most `l |h|^{l−1} / D^{l+1}`. Summed,
+    /// `Σ_{l≥4} l t^{l−1} = t³ (4 − 3t)/(1 − t)²` with `t = |h|/D < 1`;
+    /// over the cluster, `(4 − 3t)/(1 − t)²` grows with `|h| ≤ radius`, so
+    /// the integral is at most `S₃ (4 − 3t)/((1 − t)² D⁵)`. Against the
+    /// second-order truncation `S₂ (3 − 2t)/((1 − t)² D⁴)` this is about
+    /// `(4/3) r/D` as large: a third at `D = 4r`.
     pub fn truncation(&self, dist: f64) -> f64 {
         // The same, multiplied out: one division.
         let g = dist - self.radius;
-        self.second * (3.0 * dist - 2.0 * self.radius) / (g * g * dist * dist * dist)
+        self.cubic * (4.0 * dist - 3.0 * self.radius) / (g * g * dist * dist * dist * dist)
     }
 }
 
@@ -497,9 +650,8 @@ mod tests {
         let (n, s) = (m.normal, m.moment);
         let (ny, sy) = (n.dot(y), s * y);
         let (ysy, tr) = (y.dot(sy), m.moment_trace());
-        local.value += k * ((ny + tr) * s3 - 3.0 * ysy * s5);
-        local.gradient +=
-            k * (y * ((3.0 * (ny + tr)) * s5 - 15.0 * ysy * s7) + sy * (6.0 * s5) - n * s3);
+        let value2 = k * ((ny + tr) * s3 - 3.0 * ysy * s5);
+        let grad2 = k * (y * ((3.0 * (ny + tr)) * s5 - 15.0 * ysy * s7) + sy * (6.0 * s5) - n * s3);
         let a = 105.0 * ysy * s9 - 15.0 * (ny + tr) * s7;
         let v = n * (3.0 * s5) - sy * (30.0 * s7);
         let c = 3.0 * (ny + tr) * s5 - 15.0 * ysy * s7;
@@ -514,15 +666,58 @@ mod tests {
             h(1, 2),
             h(2, 0),
         ];
-        for (acc, v) in local.hessian.iter_mut().zip(hess) {
-            *acc -= k * v;
+        // The third-order term, by the same scalar steps as the lanes.
+        let w = third_times(&m.third, y);
+        let tv = DVec3::new(
+            w[0] * y.x + w[3] * y.y + w[5] * y.z,
+            w[3] * y.x + w[1] * y.y + w[4] * y.z,
+            w[5] * y.x + w[4] * y.y + w[2] * y.z,
+        );
+        let p3 = tv.x * y.x + tv.y * y.y + tv.z * y.z;
+        let tau = m.third_trace;
+        let l3 = tau.x * y.x + tau.y * y.y + tau.z * y.z;
+        let s11 = s9 * inv_r2;
+        let half_k = 0.5 * k;
+        let value3 = half_k * (15.0 * p3 * s7 - 9.0 * l3 * s5);
+        let grad3 = DVec3::from_array([0, 1, 2].map(|i| {
+            half_k
+                * (9.0 * (tau[i] * s5 - 5.0 * l3 * y[i] * s7)
+                    - 15.0 * (3.0 * tv[i] * s7 - 7.0 * p3 * y[i] * s9))
+        }));
+        let diag3 = 15.0 * (-7.0 * p3 * s9) - 9.0 * (-5.0 * l3 * s7);
+        let h3 = |i: usize, j: usize, wij: f64| {
+            15.0 * (6.0 * wij * s7 - 21.0 * (tv[i] * y[j] + y[i] * tv[j]) * s9
+                + 63.0 * p3 * y[i] * y[j] * s11)
+                - 9.0 * (35.0 * l3 * y[i] * y[j] * s9 - 5.0 * (tau[i] * y[j] + y[i] * tau[j]) * s7)
+        };
+        let hess3 = [
+            h3(0, 0, w[0]) + diag3,
+            h3(1, 1, w[1]) + diag3,
+            h3(2, 2, w[2]) + diag3,
+            h3(0, 1, w[3]),
+            h3(1, 2, w[4]),
+            h3(2, 0, w[5]),
+        ];
+        // The lanes add each node's parts first, then into the sums.
+        local.value += value2 + value3;
+        local.gradient += grad2 + grad3;
+        for ((acc, v), v3) in local.hessian.iter_mut().zip(hess).zip(hess3) {
+            *acc -= k * v - half_k * v3;
         }
         let gr = r - rho;
         let (inv_gr, u) = (1.0 / gr, rho * inv_r);
         let u3 = u * u * u;
         let dipole = m.normal_length * u3 * (4.0 - 3.0 * u) * inv_gr * inv_gr;
         let moment = m.first * u3 * (20.0 - 30.0 * u + 12.0 * u * u) * inv_gr * inv_gr * inv_gr;
-        local.error += k * (m.truncation(gr) + dipole + moment);
+        let inv_gr2 = inv_gr * inv_gr;
+        let third = 0.5
+            * m.second
+            * u3
+            * (120.0 - 270.0 * u + 216.0 * u * u - 60.0 * u3)
+            * (inv_gr2 * inv_gr2);
+        let g = gr - m.radius;
+        let truncation = m.cubic * (4.0 * gr - 3.0 * m.radius) / (g * g * (gr * gr) * (gr * gr));
+        local.error += k * (truncation + dipole + moment + third);
     }
 
     /// Translations in lanes (any count, any CPU path) equal the glam form

@@ -13,7 +13,7 @@
 //! | [`caps`] | a mesh's boundary chain and the fans that close its holes |
 //! | [`fill`] | signed crossings along x-lines per brick layer → tiles and masks |
 //! | [`winding`] | Barnes–Hut winding numbers with rigorous error bounds; rim gradient bounds |
-//! | [`expansion`] | second-order multipoles of triangle clusters and local (Taylor) expansions of the winding number over a box, with rigorous error bounds |
+//! | [`expansion`] | third-order multipoles of triangle clusters and local (Taylor) expansions of the winding number over a box, with rigorous error bounds |
 //! | [`pipeline`] | mesh → brick grid: fitting, quantization, memory estimate, the four modes, polylines |
 //! | [`measure`] | error measures against the exact conservative set: missing/extra, distances, tunnels |
 //! | [`shapes`] | closed test meshes (UV sphere, torus, box) with rotations and offsets |

@@ -390,8 +390,9 @@ pub type BrickProgress<'a> = dyn Fn(u64, u64) + Sync + 'a;
 /// caps are small; larger where they are large, so that few centres are
 /// left straddling ½. Chosen by measurement (docs/performance-notes.md,
 /// issue 22, step 5): starting at 0.75 instead of 1.5 took the bunny with
-/// 5% of its triangles deleted from 490 to 400 ms at `-r 128`.
-const BRICK_BETAS: [f64; 6] = [0.75, 1.0, 1.5, 2.0, 2.5, 3.0];
+/// 5% of its triangles deleted from 490 to 400 ms at `-r 128`; with the
+/// third-order multipoles 0.5 suffices there (160 → 137 ms).
+const BRICK_BETAS: [f64; 7] = [0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0];
 
 /// The brick ladder stops once the far field's bound is below this: a
 /// looser bound leaves the centres within it of ½ to the costlier cube by
@@ -417,8 +418,10 @@ const RETRY_CUBES: usize = 1;
 pub const AMBIGUITY_BAND: f64 = 0.1;
 
 /// Barnes–Hut opening ratios: boxes and first point estimates use the
-/// first; points still undecided go on to the larger ones.
-const BETAS: [f64; 2] = [3.0, 6.0];
+/// first; points still undecided go on to the larger ones. With
+/// third-order multipoles a node's truncation at these ratios is below
+/// what second-order ones left at 3 and 6 (about 0.65 and 0.4 of it).
+const BETAS: [f64; 2] = [2.5, 5.0];
 /// Up to this many caps an undecided point is summed exactly at the end;
 /// beyond, the last estimate stands (its error bound is far below the
 /// ambiguity band, and `w` that close to ½ is a tie in all but name).

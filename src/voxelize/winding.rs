@@ -4,15 +4,16 @@
 //! caller can tell when an approximate value already decides `w ≥ ½`.
 //!
 //! Every node stores its triangles' [`Multipole`]: area vector
-//! `N = Σ ½ (b−a)×(c−a)`, first moment `M = Σ A_t (c_t − p)ᵀ` about the
-//! area-weighted centroid `p`, the radius `r` of the ball around `p`
-//! holding all its vertices, and the second moment `S₂ = Σ ∫ |x − p|² dA`.
-//! Seen from a point `q` at distance `d = |p − q| > r`, the kernel
-//! `(x−q)/|x−q|³` expanded about `p` to first order gives the dipole and
-//! moment terms; the rest of its Taylor series sums to at most
-//! `S₂ (3 − 2t)/(4π (1 − t)² d⁴)`, `t = r/d` (derivatives of `1/|x|` of
-//! order `l` have norm `l!/|x|^{l+1}`; [`Multipole::truncation`]): second
-//! order, where a dipole alone errs by `A·2r/(4π g³)`. Leaves are summed exactly (van Oosterom–Strackee solid
+//! `N = Σ ½ (b−a)×(c−a)`, first moment `M = Σ A_t (c_t − p)ᵀ` and second
+//! moment `T = Σ ∫ n h hᵀ dA` about the area-weighted centroid `p`, the
+//! radius `r` of the ball around `p` holding all its vertices, and bounds
+//! `S₂ = Σ ∫ |x − p|² dA`, `S₃ ≥ Σ ∫ |x − p|³ dA`. Seen from a point `q` at
+//! distance `d = |p − q| > r`, the kernel `(x−q)/|x−q|³` expanded about `p`
+//! to second order gives the dipole, moment and third-order terms; the rest
+//! of its Taylor series sums to at most `S₃ (4 − 3t)/(4π (1 − t)² d⁵)`,
+//! `t = r/d` (derivatives of `1/|x|` of order `l` have norm
+//! `l!/|x|^{l+1}`; [`Multipole::truncation`]), where a dipole alone errs by
+//! `A·2r/(4π g³)`. Leaves are summed exactly (van Oosterom–Strackee solid
 //! angles in `f64`).
 //!
 //! Over a box, [`WindingTree::bound`] adds the box's half-diagonal times a
