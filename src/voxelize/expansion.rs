@@ -221,19 +221,7 @@ fn m2l_terms(centre: DVec3, rho: f64, poles: &[&Multipole; M2L_LANES]) -> M2lTer
     // `L = τ·y`, `v = T(y,y,·)`, `W = T(y,·,·)`: value `f`, gradient `−∇f`,
     // Hessian `∇²f` (`∇P = 3v`, `∇²P = 6W`).
     let t = std::array::from_fn::<Lanes, 10, _>(|i| lane(&|m| m.third[i]));
-    let w = [
-        t[0] * y[0] + t[3] * y[1] + t[4] * y[2],
-        t[5] * y[0] + t[1] * y[1] + t[7] * y[2],
-        t[6] * y[0] + t[8] * y[1] + t[2] * y[2],
-        t[3] * y[0] + t[5] * y[1] + t[9] * y[2],
-        t[9] * y[0] + t[7] * y[1] + t[8] * y[2],
-        t[4] * y[0] + t[9] * y[1] + t[6] * y[2],
-    ];
-    let tv = [
-        w[0] * y[0] + w[3] * y[1] + w[5] * y[2],
-        w[3] * y[0] + w[1] * y[1] + w[4] * y[2],
-        w[5] * y[0] + w[4] * y[1] + w[2] * y[2],
-    ];
+    let (w, tv) = third_contractions(&t, y);
     let p3 = tv[0] * y[0] + tv[1] * y[1] + tv[2] * y[2];
     let tau = [0, 1, 2].map(|i| lane(&|m| m.third_trace[i]));
     let l3 = tau[0] * y[0] + tau[1] * y[1] + tau[2] * y[2];
@@ -363,7 +351,8 @@ pub struct Multipole {
     pub second: f64,
     /// The third-order moment `T_ijk = Σ_t ∫_t n_i h_j h_k dA` (`h = x − p`,
     /// `n` the unit normal), fully symmetrised (only that part meets the
-    /// symmetric derivative tensors), by [`sym3`] slot.
+    /// symmetric derivative tensors), as `xxx yyy zzz xxy xxz xyy xzz yyz
+    /// yzz xyz`.
     pub third: [f64; 10],
     /// `τ_m = Σ_i T_iim` of the symmetrised `T`.
     pub third_trace: DVec3,
@@ -372,41 +361,29 @@ pub struct Multipole {
     pub cubic: f64,
 }
 
-/// The slot of the symmetric 3-tensor entry `(i, j, k)` in
-/// [`Multipole::third`]: `xxx yyy zzz xxy xxz xyy xzz yyz yzz xyz`.
-pub const fn sym3(i: usize, j: usize, k: usize) -> usize {
-    // Counts of each axis identify the entry.
-    let c = [
-        (i == 0) as usize + (j == 0) as usize + (k == 0) as usize,
-        (i == 1) as usize + (j == 1) as usize + (k == 1) as usize,
-        (i == 2) as usize + (j == 2) as usize + (k == 2) as usize,
-    ];
-    match c {
-        [3, 0, 0] => 0,
-        [0, 3, 0] => 1,
-        [0, 0, 3] => 2,
-        [2, 1, 0] => 3,
-        [2, 0, 1] => 4,
-        [1, 2, 0] => 5,
-        [1, 0, 2] => 6,
-        [0, 2, 1] => 7,
-        [0, 1, 2] => 8,
-        _ => 9,
-    }
-}
-
-/// `W = T·y` (`W_mn = Σ_k T_mnk y_k`) of a symmetric 3-tensor by [`sym3`]
-/// slot, as `xx yy zz xy yz zx`.
+/// `W = T(y, ·, ·)` (`W_mn = Σ_k T_mnk y_k`, as `xx yy zz xy yz zx`) and
+/// `v = T(y, y, ·) = W y` of a symmetric 3-tensor `t` stored as
+/// [`Multipole::third`] is; for `f64` and for the translation kernel's lanes
+/// alike.
 #[inline(always)]
-fn third_times(t: &[f64; 10], y: DVec3) -> [f64; 6] {
-    [
-        t[0] * y.x + t[3] * y.y + t[4] * y.z,
-        t[5] * y.x + t[1] * y.y + t[7] * y.z,
-        t[6] * y.x + t[8] * y.y + t[2] * y.z,
-        t[3] * y.x + t[5] * y.y + t[9] * y.z,
-        t[9] * y.x + t[7] * y.y + t[8] * y.z,
-        t[4] * y.x + t[9] * y.y + t[6] * y.z,
-    ]
+fn third_contractions<T>(t: &[T; 10], y: [T; 3]) -> ([T; 6], [T; 3])
+where
+    T: Copy + std::ops::Add<Output = T> + std::ops::Mul<Output = T>,
+{
+    let w = [
+        t[0] * y[0] + t[3] * y[1] + t[4] * y[2],
+        t[5] * y[0] + t[1] * y[1] + t[7] * y[2],
+        t[6] * y[0] + t[8] * y[1] + t[2] * y[2],
+        t[3] * y[0] + t[5] * y[1] + t[9] * y[2],
+        t[9] * y[0] + t[7] * y[1] + t[8] * y[2],
+        t[4] * y[0] + t[9] * y[1] + t[6] * y[2],
+    ];
+    let v = [
+        w[0] * y[0] + w[3] * y[1] + w[5] * y[2],
+        w[3] * y[0] + w[1] * y[1] + w[4] * y[2],
+        w[5] * y[0] + w[4] * y[1] + w[2] * y[2],
+    ];
+    (w, v)
 }
 
 impl Multipole {
@@ -520,13 +497,8 @@ impl Multipole {
 
     /// `T(y, y, y)` of the symmetrised third moment.
     fn third_cubed(&self, y: DVec3) -> f64 {
-        let w = third_times(&self.third, y);
-        let v = DVec3::new(
-            w[0] * y.x + w[3] * y.y + w[5] * y.z,
-            w[3] * y.x + w[1] * y.y + w[4] * y.z,
-            w[5] * y.x + w[4] * y.y + w[2] * y.z,
-        );
-        v.dot(y)
+        let (_, v) = third_contractions(&self.third, y.to_array());
+        v[0] * y.x + v[1] * y.y + v[2] * y.z
     }
 
     /// `4π` times the bound of the truncation error at every point at least
@@ -667,13 +639,8 @@ mod tests {
             h(2, 0),
         ];
         // The third-order term, by the same scalar steps as the lanes.
-        let w = third_times(&m.third, y);
-        let tv = DVec3::new(
-            w[0] * y.x + w[3] * y.y + w[5] * y.z,
-            w[3] * y.x + w[1] * y.y + w[4] * y.z,
-            w[5] * y.x + w[4] * y.y + w[2] * y.z,
-        );
-        let p3 = tv.x * y.x + tv.y * y.y + tv.z * y.z;
+        let (w, tv) = third_contractions(&m.third, y.to_array());
+        let p3 = tv[0] * y.x + tv[1] * y.y + tv[2] * y.z;
         let tau = m.third_trace;
         let l3 = tau.x * y.x + tau.y * y.y + tau.z * y.z;
         let s11 = s9 * inv_r2;
