@@ -145,6 +145,38 @@ pub fn boundary_caps(
     triangles: &[SurfaceTriangle],
     degenerate: &[SurfaceTriangle],
 ) -> Vec<SurfaceTriangle> {
+    boundary_caps_with_rim(triangles, degenerate).triangles
+}
+
+/// Caps and the boundary they close, as [`boundary_caps_with_rim`] returns
+/// them.
+#[derive(Clone, Debug, Default)]
+pub struct Caps {
+    /// The caps `S'` (as [`boundary_caps`] returns them).
+    pub triangles: Vec<SurfaceTriangle>,
+    /// `∂S`, the directed boundary edges of the mesh (with the degenerate
+    /// triangles), sorted, with multiplicity. `∂S' = ∂S` as chains, except
+    /// that caps of zero area are dropped: each is a flat loop whose
+    /// Biot–Savart field vanishes off its line, so `∇w_{S'}` is the field of
+    /// this rim wherever `w_{S'}` is smooth ([`crate::voxelize::winding::RimTree`]
+    /// bounds it). Without dropped caps it is exactly `boundary_edges` of the
+    /// caps, in the same order.
+    pub rim: Vec<([i64; 3], [i64; 3])>,
+}
+
+/// [`boundary_caps`], keeping the boundary edges it found: the caps' own rim
+/// without a second sort of their edges.
+///
+/// ```
+/// use voxkit::voxelize::caps::{boundary_caps_with_rim, boundary_edges};
+/// let (o, x, y, xy) = ([0, 0, 0], [256, 0, 0], [0, 256, 0], [256, 256, 0]);
+/// let caps = boundary_caps_with_rim(&[[o, x, xy], [o, xy, y]], &[]);
+/// assert_eq!(caps.rim, boundary_edges(caps.triangles.iter().copied()));
+/// ```
+pub fn boundary_caps_with_rim(
+    triangles: &[SurfaceTriangle],
+    degenerate: &[SurfaceTriangle],
+) -> Caps {
     // Positions packed into one u128 each (31 bits per biased coordinate;
     // fitted coordinates are below 2^30): cheap keys to sort edges by.
     const BIAS: i64 = 1 << 30;
@@ -189,7 +221,13 @@ pub fn boundary_caps(
             }
         }
     }
-    caps
+    Caps {
+        triangles: caps,
+        // `pack` is monotone in the lexicographic order of `[i64; 3]`
+        // (x in the high bits, no clamping below 2^30), so this is sorted
+        // as `boundary_edges` sorts position keys.
+        rim: edges.iter().map(|&(a, b)| (unpack(a), unpack(b))).collect(),
+    }
 }
 
 /// Splits a directed boundary (sorted edges with multiplicity, as
@@ -477,7 +515,11 @@ mod tests {
         f[0] = [f[0][0], f[0][2], f[0][1]];
         let e = boundary_edges(tris(&v, &f).iter().copied());
         assert_eq!(e.len(), 6); // three edges, each twice
-        let caps = boundary_caps(&tris(&v, &f), &[]);
+        let Caps {
+            triangles: caps,
+            rim,
+        } = boundary_caps_with_rim(&tris(&v, &f), &[]);
+        assert_eq!(rim, boundary_edges(caps.iter().copied()));
         let reversed = caps.iter().map(|t| [t[0], t[2], t[1]]);
         let closed: Vec<SurfaceTriangle> = tris(&v, &f).into_iter().chain(reversed).collect();
         assert!(boundary_edges(closed.iter().copied()).is_empty());
@@ -526,13 +568,19 @@ mod tests {
                     .filter(|(_, d)| !**d)
                     .map(|(f, _)| f.map(|i| q[i as usize]))
                     .collect();
-                let caps = boundary_caps(&s, &[]);
+                let Caps {
+                    triangles: caps,
+                    rim,
+                } = boundary_caps_with_rim(&s, &[]);
                 let reversed = caps.iter().map(|t| [t[0], t[2], t[1]]);
                 let closed: Vec<SurfaceTriangle> = s.iter().copied().chain(reversed).collect();
                 assert!(
                     boundary_edges(closed.iter().copied()).is_empty(),
                     "{seed} {pct}%"
                 );
+                // The rim handed to the caps' tree is their own boundary, in
+                // the order a second sort of their edges would give.
+                assert_eq!(rim, boundary_edges(caps.iter().copied()), "{seed} {pct}%");
                 let widest_cap = caps
                     .iter()
                     .flat_map(|t| (0..3).map(|i| len(t[i], t[(i + 1) % 3])))

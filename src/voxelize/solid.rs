@@ -51,7 +51,7 @@ use crate::error::{Result, VoxkitError};
 use crate::fixed::{ONE, to_f64};
 use crate::grid::brick::BrickMask;
 use crate::grid::{BitGrid, BrickGrid, Dims, MemoryLimit, Voxel};
-use crate::voxelize::caps::boundary_caps;
+use crate::voxelize::caps::boundary_caps_with_rim;
 use crate::voxelize::conservative::FixedTriangle;
 use crate::voxelize::fill::{
     BrickRefiner, BrickRule, FillOutput, LineValue, NoRefiner, fill_interior,
@@ -541,15 +541,15 @@ pub fn solid_interior_in(
             0.0,
         ),
         InsideTest::Winding => {
-            let caps = boundary_caps(triangles, degenerate);
-            stats.caps = caps.len();
+            let caps = boundary_caps_with_rim(triangles, degenerate);
+            stats.caps = caps.triangles.len();
             let closed: Vec<SurfaceTriangle> = triangles
                 .iter()
                 .copied()
-                .chain(caps.iter().map(|t| [t[0], t[2], t[1]]))
+                .chain(caps.triangles.iter().map(|t| [t[0], t[2], t[1]]))
                 .collect();
             let closed = in_region_columns(&closed, region);
-            if caps.is_empty() {
+            if caps.triangles.is_empty() {
                 fill_interior(
                     &closed,
                     dims,
@@ -561,7 +561,7 @@ pub fn solid_interior_in(
                 )
             } else {
                 let ctx = Classifier {
-                    caps: WindingTree::with_rim(&caps),
+                    caps: WindingTree::with_rim(&caps.triangles, &caps.rim),
                     triangles,
                     mesh: std::sync::OnceLock::new(),
                     dims,

@@ -318,10 +318,15 @@ impl WindingTree {
     }
 
     /// [`WindingTree::new`] with its rim ([`RimTree`], which the box bounds
-    /// need) built at the same time, on another thread where there is one.
-    pub fn with_rim(triangles: &[SurfaceTriangle]) -> Self {
-        let (tree, rim) = rayon::join(|| WindingTree::new(triangles), || RimTree::new(triangles));
-        // The rim is the soup's boundary, whatever the triangles' order.
+    /// need) built at the same time from `rim`, on another thread where
+    /// there is one. `rim` must be the soup's boundary edges or a chain with
+    /// the same Biot–Savart field off the soup (the boundary that caps close:
+    /// [`crate::voxelize::caps::Caps::rim`]), so that the box bounds hold.
+    pub fn with_rim(triangles: &[SurfaceTriangle], rim: &[([i64; 3], [i64; 3])]) -> Self {
+        let (tree, rim) = rayon::join(
+            || WindingTree::new(triangles),
+            || RimTree::from_edges(rim.iter().copied()),
+        );
         let _ = tree.rim.set(rim);
         tree
     }
@@ -659,12 +664,16 @@ struct RimNode {
 impl RimTree {
     /// The rim of `triangles` (fixed point, [`VOXEL_ONE`] per voxel).
     pub fn new(triangles: &[SurfaceTriangle]) -> Self {
+        Self::from_edges(boundary_edges(triangles.iter().copied()))
+    }
+
+    /// The tree over given rim edges (fixed point), in the order given (the
+    /// tree's shape, and so its bounds' last bits, depend on it).
+    pub fn from_edges(edges: impl IntoIterator<Item = ([i64; 3], [i64; 3])>) -> Self {
         let one = VOXEL_ONE as f64;
         let to = |p: [i64; 3]| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / one;
-        let mut segments: Vec<[DVec3; 2]> = boundary_edges(triangles.iter().copied())
-            .into_iter()
-            .map(|(a, b)| [to(a), to(b)])
-            .collect();
+        let mut segments: Vec<[DVec3; 2]> =
+            edges.into_iter().map(|(a, b)| [to(a), to(b)]).collect();
         let mut nodes = Vec::new();
         if !segments.is_empty() {
             build_rim(&mut nodes, &mut segments, 0);
