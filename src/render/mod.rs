@@ -35,6 +35,7 @@ mod occupancy;
 mod opacity;
 mod paged;
 pub mod volume;
+mod walk;
 
 use std::time::Instant;
 
@@ -592,7 +593,7 @@ pub fn render_grid_window<G: RenderBricks>(
     let (counters, hits) = img
         .par_bands(NORMAL_BAND)
         .map(|(b, (color, depth, hit))| {
-            let mut c = cast::CastCounters::default();
+            let mut c = walk::CastCounters::default();
             let mut hits = 0u64;
             let mut fits = (opts.normals == NormalMode::Smooth).then(|| FitCache::new(w as usize));
             for i in 0..color.len() {
@@ -613,10 +614,10 @@ pub fn render_grid_window<G: RenderBricks>(
             (c, hits)
         })
         .reduce(
-            || (cast::CastCounters::default(), 0),
+            || (walk::CastCounters::default(), 0),
             |(a, ha), (b, hb)| {
                 (
-                    cast::CastCounters {
+                    walk::CastCounters {
                         visited: a.visited + b.visited,
                         jumps: a.jumps + b.jumps,
                     },
@@ -675,7 +676,7 @@ pub fn first_hit<G: RenderBricks>(
     if !(occ.contains_voxel(seg.start_voxel()) && occ.contains_voxel(seg.end_voxel())) {
         return None;
     }
-    cast::first_hit(occ, seg, kind, skip, &mut cast::CastCounters::default())
+    cast::first_hit(occ, seg, kind, skip, &mut walk::CastCounters::default())
 }
 
 /// The fixed-point segment that every ray kind of [`render_grid`] walks for

@@ -85,13 +85,14 @@
 //! voxel and the ray, so skipping changes no pixel, for every ray kind.
 //!
 //! # Walking
-//! A ray steps through a brick first, recording voxels and linear indices
-//! (moved by per-move offsets, no 3D→1D per voxel), and then reads them:
-//! the reads depend neither on each other nor on the stepping. The 6-ray
-//! steps the tripod's state directly, the adaptive ray that state in
-//! flagged bricks and the line engine's core elsewhere (same voxels as the
-//! core throughout: tested); pixels run in bands of rows, column by column,
-//! for cache reuse between neighbouring rays.
+//! Rays are walked by the one driver of `render::walk`: a ray steps through
+//! a brick first, recording voxels and storage indices (moved by per-move
+//! offsets, no 3D→1D per voxel), and this module's visitor then reads them
+//! as a run: the reads depend neither on each other nor on the stepping.
+//! The adaptive ray reads its flags per brick (a brick is flagged when its
+//! range with the wider apron can matter); the lean steppers visit the
+//! same voxels as the line engine's core (tested); pixels run in bands of
+//! rows, column by column, for cache reuse between neighbouring rays.
 
 use std::time::Instant;
 
@@ -102,14 +103,11 @@ use crate::camera::{Camera, SceneAxes};
 use crate::error::{Result, VoxkitError};
 use crate::grid::{AnatomicalSpace, MemoryLimit, ScalarVolume};
 use crate::line::Segment;
-use crate::line::adaptive::{Core, RayMode};
-use crate::line::amanatides_woo::AwStepper;
 use crate::line::segment::Frame;
-use crate::line::tripod6::{JUMP_MAX_DELTA, TripodState};
 
 use super::bricks::{BRICK, BrickRange, VolumeBricks};
-use super::cast::CastCounters;
 use super::occupancy::chessboard_distance;
+use super::walk::{BUF, CastCounters, Run, Visitor, walk_aw, walk_exact};
 use super::{
     GridRay, GridTransform, NormalMode, RayKind, RaySetup, RenderImage, RenderOptions, RenderStats,
     camera_check, check_image, corrected_opacity,
@@ -589,7 +587,6 @@ struct FrameCtx<'a> {
     opts: &'a RenderOptions,
     setup: RaySetup,
     class: Vec<BrickClass>,
-    strides: [isize; 3],
     dims: [i32; 3],
     /// Brick ranges index: 0 nearest, 1 trilinear.
     r: usize,
@@ -658,7 +655,6 @@ impl<'a> FrameCtx<'a> {
             opts,
             setup,
             class,
-            strides: VolumeBricks::STRIDES,
             dims,
             r,
             pyramid,
@@ -925,18 +921,10 @@ fn grey(s: f32, (lo, hi): (f32, f32)) -> f32 {
     ((s - lo) / (hi - lo)).clamp(0.0, 1.0)
 }
 
-/// Voxels stepped before they are read (a brick's path has at most 22).
-const BUF: usize = 32;
-
-/// Ray kinds as const parameters.
-const K6: u8 = 0;
-const K26: u8 = 1;
-const KAD: u8 = 2;
-
-/// Reads the voxels `buf` (world voxel, linear index) that a ray stepped
-/// through, in order, into `acc`; `true` when `acc` ends the ray. Stretches
-/// are chords, or with `column = (major axis, previous column)` (the
-/// 26-ray) the ray's stretch through each voxel's column.
+/// Reads the voxels `buf` (world voxel, storage index) that a ray stepped
+/// through, in order, into `acc`; `Some(i)` when voxel `i` ends the ray.
+/// Stretches are chords, or with `column = (major axis, previous column)`
+/// (the 26-ray) the ray's stretch through each voxel's column.
 #[inline(always)]
 fn consume<A: Accum, const TRI: bool>(
     ctx: &FrameCtx,
@@ -944,8 +932,7 @@ fn consume<A: Accum, const TRI: bool>(
     buf: &[(IVec3, usize)],
     mut column: Option<(usize, &mut i32)>,
     acc: &mut A,
-    n: &mut CastCounters,
-) -> bool {
+) -> Option<usize> {
     let bricks = &ctx.scene.bricks;
     let mut samples = [0f32; BUF];
     let mut lens = [0f64; BUF];
@@ -971,17 +958,7 @@ fn consume<A: Accum, const TRI: bool>(
             lens[i] = (st.1 - st.0).max(0.0);
         }
     }
-    let n_buf = buf.len();
-    match acc.visit_run(buf, &samples, &lens) {
-        Some(i) => {
-            n.visited += i as u64 + 1;
-            true
-        }
-        None => {
-            n.visited += n_buf as u64;
-            false
-        }
-    }
+    acc.visit_run(buf, &samples, &lens)
 }
 
 /// The box of world voxels (inclusive) a ray in brick `b` (index `bi`) may
@@ -1024,370 +1001,75 @@ fn skip_box<A: Accum>(
     (k == 1).then(|| cloud(1))
 }
 
-/// The extent ahead of local voxel `c` (world `v`) of the world box
-/// `[lo, hi]` along each local axis, clipped to the end voxel; `None` if the
-/// end voxel lies in the box (the rest of the ray does).
-#[inline(always)]
-fn box_ahead(f: &Frame, v: IVec3, c: [i64; 3], lo: IVec3, hi: IVec3) -> Option<[i64; 3]> {
-    let h: [i64; 3] = std::array::from_fn(|j| {
-        let w = f.perm[j];
-        i64::from(if f.sign[j] > 0 {
-            hi[w] - v[w]
-        } else {
-            v[w] - lo[w]
-        })
-        .min(f.end[j] - c[j])
-    });
-    (0..3).any(|j| c[j] + h[j] < f.end[j]).then_some(h)
+/// The volume visitor of the [`walk`](super::walk) driver: per brick its
+/// class (static skip and flag distances) and storage base, jump boxes from
+/// [`skip_box`] (a 26 stretch of the adaptive ray only over flag-free
+/// bricks, and without the MIP's dynamic threshold, which a 6 stretch
+/// takes), per run the samples into the accumulator.
+struct VolumeVisit<'c, 'a, A: Accum, const TRI: bool> {
+    ctx: &'c FrameCtx<'a>,
+    g: &'c RayGeom,
+    acc: &'c mut A,
+    /// The 26-ray's major axis and previous column (a repeated column gets
+    /// no stretch); `None` for the other kinds.
+    column: Option<(usize, i32)>,
 }
 
-/// Walks one 6-ray (the tripod line) over `seg`, feeding `acc`: the
-/// tripod's own stepping state in registers (the core's 6 mode without
-/// the mode tests) and its O(1) box exit for jumps, as
-/// [`Core`]'s 6 mode does. Wide frames (beyond `i64` decision variables)
-/// take the core.
-fn walk_six<A: Accum, const TRI: bool>(
-    ctx: &FrameCtx,
-    g: &RayGeom,
-    seg: &Segment,
-    acc: &mut A,
-    n: &mut CastCounters,
-) {
-    let f = Frame::new(seg);
-    if f.wide {
-        return walk_exact::<A, TRI, K6>(ctx, g, seg, acc, n);
+impl<A: Accum, const TRI: bool> Visitor for VolumeVisit<'_, '_, A, TRI> {
+    /// Brick index and class.
+    type Brick = (usize, BrickClass);
+
+    #[inline(always)]
+    fn enter(&mut self, b: IVec3) -> Self::Brick {
+        let bi = self.ctx.scene.brick_index(b);
+        (bi, self.ctx.class[bi])
     }
-    let scene = ctx.scene;
-    let te = f.tripod_steps() as i64;
-    let mut st = TripodState::<i64>::at(&f, [0; 3]);
-    let ws = f.world_steps();
-    let [sx, sy, sz] = ctx.strides;
-    let off: [isize; 3] = ws.map(|s| s.x as isize * sx + s.y as isize * sy + s.z as isize * sz);
-    let v0 = IVec3::from_array(f.v0.map(|x| x as i32));
-    let local = |v: IVec3| -> [i64; 3] {
-        std::array::from_fn(|j| i64::from(v[f.perm[j]] - v0[f.perm[j]]) * f.sign[j])
-    };
-    let jumps = f.d[0] <= JUMP_MAX_DELTA;
-    let mut v = v0;
-    let mut t: i64 = 0;
-    let mut buf = [(IVec3::ZERO, 0usize); BUF];
-    loop {
-        let b = v >> 3;
-        // Stepping moves the index only inside a brick: set it per brick.
-        let mut idx = scene.index(v);
-        let bi = scene.brick_index(b);
-        if ctx.opts.skip
-            && let Some((lo, hi)) = skip_box(ctx, acc, b, bi, ctx.class[bi].skip, true)
-        {
-            let c = local(v);
-            let Some(h) = box_ahead(&f, v, c, lo, hi) else {
-                // The rest of the ray lies in the box: nothing to see.
-                break;
-            };
-            if jumps {
-                let delta = st.exit_box(h);
-                n.jumps += 1;
-                let c: [i64; 3] = std::array::from_fn(|j| c[j] + delta[j]);
-                v = f.voxel_world(c);
-                t = c.iter().sum();
-                continue;
-            }
+
+    #[inline(always)]
+    fn base(&self, (bi, _): Self::Brick) -> usize {
+        bi << 9
+    }
+
+    #[inline(always)]
+    fn jump_box(
+        &mut self,
+        (bi, class): Self::Brick,
+        b: IVec3,
+        _: IVec3,
+        in26: bool,
+    ) -> Option<(IVec3, IVec3)> {
+        if !self.ctx.opts.skip {
+            return None;
         }
-        let mut cnt = 0;
-        let mut ended = false;
-        loop {
-            buf[cnt] = (v, idx);
-            cnt += 1;
-            if t >= te {
-                ended = true;
-                break;
-            }
-            let axis = st.step();
-            v += ws[axis];
-            idx = idx.wrapping_add_signed(off[axis]);
-            t += 1;
-            if v >> 3 != b || cnt == BUF {
-                break;
-            }
-        }
-        if consume::<A, TRI>(ctx, g, &buf[..cnt], None, acc, n) || ended {
-            break;
+        let k = if in26 { class.flag } else { class.skip };
+        skip_box(self.ctx, self.acc, b, bi, k, !in26)
+    }
+
+    #[inline(always)]
+    fn flagged(&self, (_, class): Self::Brick, _: usize) -> bool {
+        class.flag == 0
+    }
+
+    #[inline(always)]
+    fn recheck_on_mode_change(&self, _: Self::Brick) -> bool {
+        self.ctx.opts.skip
+    }
+
+    #[inline(always)]
+    fn run(&mut self, _: Self::Brick, run: &Run) -> Option<usize> {
+        let column = self.column.as_mut().map(|(major, prev)| (*major, prev));
+        consume::<A, TRI>(self.ctx, self.g, run, column, self.acc)
+    }
+
+    #[inline(always)]
+    fn jumped(&mut self) {
+        if let Some((_, prev)) = &mut self.column {
+            *prev = i32::MIN;
         }
     }
 }
 
-/// Walks one adaptive ray over `seg`, feeding `acc`. The flags are constant
-/// per brick, so the ray runs 6-connected through every flagged brick:
-/// there it steps its own tripod state (as [`walk_six`]); through
-/// unflagged bricks it steps the line engine's [`Core`], set up in 6 mode at
-/// the brick's first voxel, whose steps switch to 26 mode where the
-/// adaptive rule allows. That is exactly the core's own walk (a core
-/// entering a flagged voxel in 26 mode restarts its tripod there; the
-/// tripod's state at a voxel depends only on the voxel), without the core's
-/// per-step mode tests where every voxel is flagged. Wide frames take the
-/// core throughout.
-fn walk_adaptive<A: Accum, const TRI: bool>(
-    ctx: &FrameCtx,
-    g: &RayGeom,
-    seg: &Segment,
-    acc: &mut A,
-    n: &mut CastCounters,
-) {
-    let f = Frame::new(seg);
-    if f.wide {
-        return walk_exact::<A, TRI, KAD>(ctx, g, seg, acc, n);
-    }
-    let scene = ctx.scene;
-    let te = f.tripod_steps() as i64;
-    let mut tri = TripodState::<i64>::at(&f, [0; 3]);
-    // The core while the ray is in an unflagged brick.
-    let mut core: Option<Core> = None;
-    let ws = f.world_steps();
-    let steps = f.mask_steps();
-    let [sx, sy, sz] = ctx.strides;
-    let off: [isize; 8] = steps.map(|s| s.x as isize * sx + s.y as isize * sy + s.z as isize * sz);
-    let v0 = IVec3::from_array(f.v0.map(|x| x as i32));
-    let local = |v: IVec3| -> [i64; 3] {
-        std::array::from_fn(|j| i64::from(v[f.perm[j]] - v0[f.perm[j]]) * f.sign[j])
-    };
-    let jumps = f.d[0] <= JUMP_MAX_DELTA;
-    let mut v = v0;
-    let mut t: i64 = 0;
-    let mut buf = [(IVec3::ZERO, 0usize); BUF];
-    loop {
-        let b = v >> 3;
-        // Stepping moves the index only inside a brick: set it per brick.
-        let mut idx = scene.index(v);
-        let bi = scene.brick_index(b);
-        let class = ctx.class[bi];
-        let flagged = class.flag == 0;
-        let c = local(v);
-        if flagged && core.take().is_some() {
-            // 26 mode reaching a flagged voxel goes 6 here; a core already
-            // in 6 mode has this very state.
-            tri = TripodState::at(&f, c);
-        }
-        if ctx.opts.skip {
-            let in26 = core.as_ref().is_some_and(|k| k.mode == RayMode::TwentySix);
-            let k = if in26 { class.flag } else { class.skip };
-            if let Some((lo, hi)) = skip_box(ctx, acc, b, bi, k, !in26) {
-                let Some(h) = box_ahead(&f, v, c, lo, hi) else {
-                    // The rest of the ray lies in the box: nothing to see.
-                    break;
-                };
-                let jumped = match core.as_mut() {
-                    Some(k) => k.jump(h).is_some(),
-                    None if jumps => {
-                        let delta = tri.exit_box(h);
-                        let c: [i64; 3] = std::array::from_fn(|j| c[j] + delta[j]);
-                        t = c.iter().sum();
-                        v = f.voxel_world(c);
-                        true
-                    }
-                    None => false,
-                };
-                if jumped {
-                    n.jumps += 1;
-                    if let Some(k) = &core {
-                        t = k.c.iter().sum();
-                        v = f.voxel_world(k.c);
-                    }
-                    continue;
-                }
-            }
-        }
-        let mut cnt = 0;
-        let mut ended = false;
-        if flagged {
-            loop {
-                buf[cnt] = (v, idx);
-                cnt += 1;
-                if t >= te {
-                    ended = true;
-                    break;
-                }
-                let axis = tri.step();
-                v += ws[axis];
-                idx = idx.wrapping_add_signed(off[1 << axis]);
-                t += 1;
-                if v >> 3 != b || cnt == BUF {
-                    break;
-                }
-            }
-        } else {
-            let k = core.get_or_insert_with(|| Core::at_tripod_in(&f, c));
-            loop {
-                buf[cnt] = (v, idx);
-                cnt += 1;
-                if t >= te {
-                    ended = true;
-                    break;
-                }
-                let was = k.mode;
-                let mask = k.step_on(false);
-                v += steps[mask];
-                idx = idx.wrapping_add_signed(off[mask]);
-                t += i64::from(mask.count_ones());
-                if t > te {
-                    ended = true;
-                    break;
-                }
-                if v >> 3 != b || (ctx.opts.skip && was != k.mode) || cnt == BUF {
-                    break;
-                }
-            }
-        }
-        if consume::<A, TRI>(ctx, g, &buf[..cnt], None, acc, n) || ended {
-            break;
-        }
-    }
-}
-
-/// Walks one ray of an exact kind on the line engine's core over `seg`,
-/// feeding `acc`: the 26-ray, and the 6-ray and the adaptive ray on wide
-/// frames (the reference the specialised walks are tested against).
-fn walk_exact<A: Accum, const TRI: bool, const KIND: u8>(
-    ctx: &FrameCtx,
-    g: &RayGeom,
-    seg: &Segment,
-    acc: &mut A,
-    n: &mut CastCounters,
-) {
-    let scene = ctx.scene;
-    let f = Frame::new(seg);
-    let te = f.tripod_steps() as i64;
-    let mut core = if KIND == K26 {
-        Core::at_26_start(&f)
-    } else {
-        Core::at_tripod_in(&f, [0; 3])
-    };
-    let steps = f.mask_steps();
-    let [sx, sy, sz] = ctx.strides;
-    let off: [isize; 8] = steps.map(|s| s.x as isize * sx + s.y as isize * sy + s.z as isize * sz);
-    let major = f.perm[0];
-    let mut v = f.voxel_world(core.c);
-    let mut t: i64 = core.c.iter().sum();
-    // The 26-ray's previous column (a repeated column gets no stretch).
-    let mut prev_col = i32::MIN;
-    let mut buf = [(IVec3::ZERO, 0usize); BUF];
-    loop {
-        if t > te {
-            break;
-        }
-        let b = v >> 3;
-        // Stepping moves the index only inside a brick: set it per brick.
-        let mut idx = scene.index(v);
-        let bi = scene.brick_index(b);
-        let class = ctx.class[bi];
-        let in26 = KIND == KAD && core.mode == RayMode::TwentySix;
-        if ctx.opts.skip {
-            let k = if in26 { class.flag } else { class.skip };
-            if let Some((lo, hi)) = skip_box(ctx, acc, b, bi, k, !in26) {
-                let Some(h) = box_ahead(&f, v, core.c, lo, hi) else {
-                    // The rest of the ray lies in the box: nothing to see.
-                    break;
-                };
-                if core.jump(h).is_some() {
-                    n.jumps += 1;
-                    v = f.voxel_world(core.c);
-                    t = core.c.iter().sum();
-                    prev_col = i32::MIN;
-                    continue;
-                }
-            }
-        }
-        let flag = match KIND {
-            K6 => true,
-            K26 => false,
-            _ => class.flag == 0,
-        };
-        // Step through the brick first, then read its voxels: the reads
-        // are independent of each other and of the stepping, so they
-        // overlap (a ray through a large volume misses the cache at most
-        // voxels).
-        let mut cnt = 0;
-        let mut ended = false;
-        loop {
-            buf[cnt] = (v, idx);
-            cnt += 1;
-            if t >= te {
-                ended = true;
-                break;
-            }
-            let was = core.mode;
-            let mask = core.step_on(flag);
-            v += steps[mask];
-            idx = idx.wrapping_add_signed(off[mask]);
-            t += i64::from(mask.count_ones());
-            if t > te {
-                ended = true;
-                break;
-            }
-            if v >> 3 != b || (KIND == KAD && ctx.opts.skip && was != core.mode) || cnt == BUF {
-                break;
-            }
-        }
-        let column = (KIND == K26).then_some((major, &mut prev_col));
-        if consume::<A, TRI>(ctx, g, &buf[..cnt], column, acc, n) || ended {
-            break;
-        }
-    }
-}
-
-/// Walks one Amanatides–Woo ray over `seg`, feeding `acc`.
-fn walk_aw<A: Accum, const TRI: bool>(
-    ctx: &FrameCtx,
-    g: &RayGeom,
-    seg: &Segment,
-    acc: &mut A,
-    n: &mut CastCounters,
-) {
-    let scene = ctx.scene;
-    let [a, b] = [seg.a(), seg.b()].map(|p| DVec3::from_array(p.map(crate::fixed::to_f64)));
-    let Ok(mut s) = AwStepper::new(a, b) else {
-        return;
-    };
-    let dir = s.direction();
-    let off: [isize; 3] = std::array::from_fn(|k| dir[k] as isize * ctx.strides[k]);
-    let mut v = s.voxel();
-    let mut buf = [(IVec3::ZERO, 0usize); BUF];
-    loop {
-        let bk = v >> 3;
-        let mut idx = scene.index(v);
-        let bi = scene.brick_index(bk);
-        if ctx.opts.skip
-            && let Some((lo, hi)) = skip_box(ctx, acc, bk, bi, ctx.class[bi].skip, true)
-        {
-            if !s.jump_past_box(lo, hi) {
-                break;
-            }
-            n.jumps += 1;
-            v = s.voxel();
-            continue;
-        }
-        let mut cnt = 0;
-        let mut ended = false;
-        loop {
-            buf[cnt] = (v, idx);
-            cnt += 1;
-            let Some(axis) = s.next_axis() else {
-                ended = true;
-                break;
-            };
-            s.step();
-            v[axis] += dir[axis];
-            idx = idx.wrapping_add_signed(off[axis]);
-            if v >> 3 != bk || cnt == BUF {
-                break;
-            }
-        }
-        if consume::<A, TRI>(ctx, g, &buf[..cnt], None, acc, n) || ended {
-            break;
-        }
-    }
-}
-
-/// Casts one ray of the frame's kind.
+/// Casts one ray of the frame's kind into `acc`.
 #[inline]
 fn cast<A: Accum, const TRI: bool>(
     ctx: &FrameCtx,
@@ -1396,11 +1078,17 @@ fn cast<A: Accum, const TRI: bool>(
     acc: &mut A,
     n: &mut CastCounters,
 ) {
-    match ctx.opts.ray {
-        RayKind::Six => walk_six::<A, TRI>(ctx, g, seg, acc, n),
-        RayKind::TwentySix => walk_exact::<A, TRI, K26>(ctx, g, seg, acc, n),
-        RayKind::Adaptive => walk_adaptive::<A, TRI>(ctx, g, seg, acc, n),
-        RayKind::AmanatidesWoo => walk_aw::<A, TRI>(ctx, g, seg, acc, n),
+    let kind = ctx.opts.ray;
+    let column = (kind == RayKind::TwentySix).then(|| (Frame::new(seg).perm[0], i32::MIN));
+    let mut vis = VolumeVisit::<A, TRI> {
+        ctx,
+        g,
+        acc,
+        column,
+    };
+    match kind {
+        RayKind::AmanatidesWoo => walk_aw(seg, &mut vis, n),
+        _ => walk_exact(seg, kind, &mut vis, n),
     }
 }
 
@@ -1801,13 +1489,13 @@ mod tests {
         (a, b, seg, RayGeom::new(&ray, dims.map(|d| d as i32)))
     }
 
-    /// The specialised walks visit exactly the voxels of the core's walk,
-    /// in order: the 6-ray's tripod state against the core in 6 mode, and
-    /// the adaptive walk (own tripod in flagged bricks, the core elsewhere)
-    /// against the core with the brick flags, on volumes with flagged and
-    /// unflagged bricks and random segments inside them.
+    /// The lean steppers of the walk driver visit exactly the voxels of the
+    /// line engine's core, in order, for the 6-ray, the 26-ray and the
+    /// adaptive ray (brick flags per brick: runs of flagged and unflagged
+    /// voxels), on volumes with flagged and unflagged bricks and random
+    /// segments inside them.
     #[test]
-    fn specialised_walks_equal_the_core() {
+    fn lean_walks_equal_the_core() {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
         let mut mixed = 0;
@@ -1838,19 +1526,27 @@ mod tests {
             let ctx = FrameCtx::new(&scene, &cam, &opts, &vopts);
             for _ in 0..300 {
                 let (_, _, seg, g) = random_segment(&mut rng, dims);
-                let walk =
-                    |w: fn(&FrameCtx, &RayGeom, &Segment, &mut Record, &mut CastCounters)| {
-                        let mut r = Record(Vec::new());
-                        w(&ctx, &g, &seg, &mut r, &mut CastCounters::default());
-                        r.0
+                let walk = |core: bool, kind: RayKind| {
+                    let mut r = Record(Vec::new());
+                    let mut vis = VolumeVisit::<Record, false> {
+                        ctx: &ctx,
+                        g: &g,
+                        acc: &mut r,
+                        column: None,
                     };
-                assert_eq!(
-                    walk(walk_six::<Record, false>),
-                    walk(walk_exact::<Record, false, K6>),
-                    "{seg:?}"
-                );
-                let ad = walk(walk_adaptive::<Record, false>);
-                assert_eq!(ad, walk(walk_exact::<Record, false, KAD>), "{seg:?}");
+                    let n = &mut CastCounters::default();
+                    if core {
+                        super::super::walk::walk_core(&seg, kind, &mut vis, n);
+                    } else {
+                        walk_exact(&seg, kind, &mut vis, n);
+                    }
+                    r.0
+                };
+                for kind in [RayKind::Six, RayKind::TwentySix] {
+                    assert_eq!(walk(false, kind), walk(true, kind), "{kind:?} {seg:?}");
+                }
+                let ad = walk(false, RayKind::Adaptive);
+                assert_eq!(ad, walk(true, RayKind::Adaptive), "{seg:?}");
                 let flagged = ad
                     .iter()
                     .filter(|(v, _)| ctx.class[scene.brick_index(*v >> 3)].flag == 0)

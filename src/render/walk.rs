@@ -1,0 +1,622 @@
+//! One traversal driver for every render: a ray kind's stepping state
+//! ([`Stepper`]) walks a segment brick by brick and hands each run of
+//! voxels to a [`Visitor`] (the first occupied voxel of a grid, or a
+//! volume's MIP, composite or iso), which also says, per brick, which box
+//! the ray may jump.
+//!
+//! The exact kinds share [`walk`]: the segment's local frame (major axis
+//! first, every direction non-negative), the tripod index `t` (sum of local
+//! coordinates) counted to the end voxel's, the world voxel moved by
+//! per-move offsets, and inside a brick the in-brick index `lx + 8 ly + 64
+//! lz` moved by pointer offsets (1, 8, 64 signed per local axis) until the
+//! world voxel leaves the brick: no 3D→1D recomputation and no bounds
+//! check while stepping (the segment was clipped into the grid once, so its
+//! whole path is in it). (Biased step-count lanes per local axis, as an
+//! exit test, cost more to set up per brick than they saved per step on the
+//! short brick paths of jumping rays.) The steppers
+//! are the lean states of the line engine: the tripod 6-ray ([`Six`]), the
+//! 26-line's plan ([`TwentySix`]), the adaptive ray ([`Adaptive`], pinned
+//! to the line engine's core by `lean_adaptive_equals_core`), and for wide
+//! frames (`i128` decision variables) the core itself ([`CoreStep`]).
+//! Amanatides–Woo steps in `f64` on its own state and has its own driver
+//! ([`walk_aw`]) over the same visitors.
+//!
+//! Jumps: where the visitor gives a box the ray may skip (nothing in it can
+//! change the result: an empty box of bricks, a transparent or
+//! sub-threshold one), the stepper leaves it in O(1), in exactly the state
+//! stepping would reach; a box that holds the rest of the ray ends it.
+
+use glam::{DVec3, IVec3};
+
+use crate::line::adaptive::{Core, RayMode};
+use crate::line::amanatides_woo::AwStepper;
+use crate::line::line26::{Mid26State, Moves, Plan26};
+use crate::line::segment::{Frame, Segment};
+use crate::line::tripod6::{JUMP_MAX_DELTA, TripodState};
+
+use super::RayKind;
+
+/// Counters of one ray (summed over an image).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct CastCounters {
+    /// Voxels handed to the visitor and read.
+    pub visited: u64,
+    /// Jumps over boxes.
+    pub jumps: u64,
+}
+
+/// Voxels stepped before they are handed over (a brick's path has at most
+/// 22 for the 6-ray, fewer for the others).
+pub(crate) const BUF: usize = 32;
+
+/// One run of stepped voxels: world voxel and storage index (the brick's
+/// [`Visitor::base`] plus the in-brick index).
+pub(crate) type Run = [(IVec3, usize)];
+
+/// The voxels stepped through one brick, handed over as a [`Run`]. Not
+/// zeroed per ray (a pixel's walk is short: clearing 768 bytes per ray
+/// was measurable): entries are written before they are read.
+struct RunBuf {
+    items: [std::mem::MaybeUninit<(IVec3, usize)>; BUF],
+    /// Invariant: `items[..len]` are initialised.
+    len: usize,
+}
+
+impl RunBuf {
+    #[inline(always)]
+    fn new() -> Self {
+        RunBuf {
+            items: [std::mem::MaybeUninit::uninit(); BUF],
+            len: 0,
+        }
+    }
+
+    /// Appends one voxel (the drivers stop a run at [`BUF`]).
+    #[inline(always)]
+    fn push(&mut self, x: (IVec3, usize)) {
+        self.items[self.len].write(x);
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn as_run(&self) -> &Run {
+        // SAFETY: `items[..len]` are initialised (the invariant: `push`
+        // writes an entry before it counts it, `clear` only shrinks).
+        unsafe { std::slice::from_raw_parts(self.items.as_ptr().cast(), self.len) }
+    }
+
+    #[inline(always)]
+    fn clear(&mut self) {
+        self.len = 0;
+    }
+}
+
+/// What a render does with a ray's voxels.
+pub(crate) trait Visitor {
+    /// What the visitor looks up once per brick.
+    type Brick: Copy;
+    /// Locates brick `b` (inside the grid) as the ray enters it.
+    fn enter(&mut self, b: IVec3) -> Self::Brick;
+    /// Added to the in-brick index `lx + 8 ly + 64 lz` of a run's voxels.
+    fn base(&self, brick: Self::Brick) -> usize;
+    /// A world box (inclusive) around the ray's voxel `v` in brick `b` that
+    /// it may jump now, if any; `in26`: the adaptive ray is in 26 mode.
+    fn jump_box(
+        &mut self,
+        brick: Self::Brick,
+        b: IVec3,
+        v: IVec3,
+        in26: bool,
+    ) -> Option<(IVec3, IVec3)>;
+    /// Whether the voxels of this brick are read at all (`false`: the ray
+    /// steps through it without a run; a grid brick without occupied
+    /// voxels).
+    #[inline(always)]
+    fn reads(&self, _brick: Self::Brick) -> bool {
+        true
+    }
+    /// Whether the voxel at storage index `i` ([`Visitor::base`] plus the
+    /// in-brick index) is flagged (read by the adaptive ray).
+    fn flagged(&self, brick: Self::Brick, i: usize) -> bool;
+    /// Whether a change of stepping mode inside this brick must hand back
+    /// to the jump test (a 26 stretch may jump where 6 steps may not).
+    fn recheck_on_mode_change(&self, brick: Self::Brick) -> bool;
+    /// Whether the visitor takes each voxel as it is stepped ([`Visitor::voxel`],
+    /// a first hit: no run is buffered) rather than runs ([`Visitor::run`],
+    /// whose reads overlap).
+    const PER_VOXEL: bool = false;
+    /// Takes one voxel (world, storage index) as it is stepped, where
+    /// [`Visitor::PER_VOXEL`]; `true` ends the ray at it.
+    #[inline(always)]
+    fn voxel(&mut self, _brick: Self::Brick, _v: IVec3, _i: usize) -> bool {
+        false
+    }
+    /// Takes a run of voxels in order; `Some(i)` when voxel `i` ends the ray.
+    #[inline(always)]
+    fn run(&mut self, _brick: Self::Brick, _run: &Run) -> Option<usize> {
+        None
+    }
+    /// Told after each jump (the 26-ray's column bookkeeping).
+    #[inline(always)]
+    fn jumped(&mut self) {}
+}
+
+/// What the driver needs from a ray kind's stepping state.
+pub(crate) trait Stepper {
+    /// Whether a voxel's flag matters (the adaptive ray).
+    const READS_FLAGS: bool;
+    /// One step out of the current voxel (not the last); the local move
+    /// mask. `local` gives the current voxel's local coordinates (asked
+    /// only where the adaptive ray switches mode: stepping does not track
+    /// them).
+    fn step(&mut self, flagged: bool, local: impl Fn() -> [i64; 3]) -> usize;
+    /// Whether a jump may be tried now.
+    fn may_jump(&self) -> bool;
+    /// O(1) jump past the local box `[c, c + h]` of the current voxel `c`
+    /// (`h` clipped to the end voxel, which lies outside the box); the
+    /// local moves, or `None` where no jump applies.
+    fn jump(&mut self, h: [i64; 3], c: [i64; 3]) -> Option<[i64; 3]>;
+    /// Whether the ray is in a 26 stretch of the adaptive ray.
+    fn in_26(&self) -> bool;
+}
+
+/// The tripod 6-ray on its bare decision variables.
+pub(crate) struct Six {
+    s: TripodState<i64>,
+}
+
+impl Stepper for Six {
+    const READS_FLAGS: bool = false;
+    #[inline(always)]
+    fn step(&mut self, _: bool, _: impl Fn() -> [i64; 3]) -> usize {
+        1 << self.s.step()
+    }
+    #[inline(always)]
+    fn may_jump(&self) -> bool {
+        true
+    }
+    #[inline(always)]
+    fn jump(&mut self, h: [i64; 3], _: [i64; 3]) -> Option<[i64; 3]> {
+        Some(self.s.exit_box(h))
+    }
+    #[inline(always)]
+    fn in_26(&self) -> bool {
+        false
+    }
+}
+
+/// The adaptive ray on bare states: the tripod variables in 6 mode, the
+/// midpoint variables in 26 mode, switching exactly as the line engine's
+/// adaptive core does (26→6 at a flagged voxel; 6→26 at an unflagged voxel
+/// whose next tripod step is major, not in the last two columns), with the
+/// 26-line's suffix moves (its plan) built only if a ray gets there. Pinned
+/// to the core by `lean_adaptive_equals_core`.
+pub(crate) struct Adaptive<'f> {
+    f: &'f Frame,
+    twenty_six: bool,
+    tri: TripodState<i64>,
+    mid: Mid26State<i64>,
+    mid_left: u64,
+    post: Option<(Moves, usize)>,
+}
+
+impl<'f> Adaptive<'f> {
+    pub(crate) fn new(f: &'f Frame) -> Self {
+        Adaptive {
+            f,
+            twenty_six: false,
+            tri: TripodState::at(f, [0; 3]),
+            mid: Mid26State::at(f, [0; 3]),
+            mid_left: 0,
+            post: None,
+        }
+    }
+}
+
+impl Stepper for Adaptive<'_> {
+    const READS_FLAGS: bool = true;
+    #[inline(always)]
+    fn step(&mut self, flagged: bool, local: impl Fn() -> [i64; 3]) -> usize {
+        if self.twenty_six {
+            if flagged {
+                self.twenty_six = false;
+                self.tri = TripodState::at(self.f, local());
+                1 << self.tri.step()
+            } else if self.mid_left > 0 {
+                self.mid_left -= 1;
+                self.mid.step()
+            } else {
+                let f = self.f;
+                let (moves, i) = self.post.get_or_insert_with(|| (Plan26::new(f).post, 0));
+                *i += 1;
+                moves.m[*i - 1] as usize
+            }
+        } else if !flagged && self.tri.next_is_major() {
+            let c = local();
+            if c[0] <= self.f.end[0] - 2 {
+                self.twenty_six = true;
+                self.mid = Mid26State::at(self.f, c);
+                self.mid_left = (self.f.end[0] - 2 - c[0]) as u64;
+                self.post = None;
+                self.mid.step()
+            } else {
+                1 << self.tri.step()
+            }
+        } else {
+            1 << self.tri.step()
+        }
+    }
+    /// In 26 mode while the middle columns last; in 6 mode always (the
+    /// tripod's box exit: the visitor decides whether a 6 stretch may jump).
+    #[inline(always)]
+    fn may_jump(&self) -> bool {
+        !self.twenty_six || self.mid_left > 0
+    }
+    #[inline(always)]
+    fn jump(&mut self, h: [i64; 3], _: [i64; 3]) -> Option<[i64; 3]> {
+        if self.twenty_six {
+            self.mid.jump_box(h, &mut self.mid_left)
+        } else {
+            Some(self.tri.exit_box(h))
+        }
+    }
+    #[inline(always)]
+    fn in_26(&self) -> bool {
+        self.twenty_six
+    }
+}
+
+/// The 26-ray: the plan's prefix and suffix moves around the middle
+/// columns, which step on the bare midpoint variables.
+pub(crate) struct TwentySix {
+    pre: Moves,
+    pre_i: usize,
+    mid: Mid26State<i64>,
+    mid_left: u64,
+    post: Moves,
+    post_i: usize,
+}
+
+impl Stepper for TwentySix {
+    const READS_FLAGS: bool = false;
+    #[inline(always)]
+    fn step(&mut self, _: bool, _: impl Fn() -> [i64; 3]) -> usize {
+        if self.mid_left > 0 && self.pre_i == self.pre.len {
+            self.mid_left -= 1;
+            self.mid.step()
+        } else if self.pre_i < self.pre.len {
+            self.pre_i += 1;
+            self.pre.m[self.pre_i - 1] as usize
+        } else {
+            self.post_i += 1;
+            self.post.m[self.post_i - 1] as usize
+        }
+    }
+    #[inline(always)]
+    fn may_jump(&self) -> bool {
+        self.pre_i == self.pre.len && self.mid_left > 0
+    }
+    #[inline(always)]
+    fn jump(&mut self, h: [i64; 3], _: [i64; 3]) -> Option<[i64; 3]> {
+        self.mid.jump_box(h, &mut self.mid_left)
+    }
+    #[inline(always)]
+    fn in_26(&self) -> bool {
+        false
+    }
+}
+
+/// The line engine's core as a stepper: wide frames (decision variables
+/// beyond `i64`), any exact kind. `fixed`: the flag every voxel gets (the
+/// 6-ray: all flagged; the 26-ray: none); `None` for the adaptive ray.
+pub(crate) struct CoreStep {
+    core: Core,
+    fixed: Option<bool>,
+}
+
+impl Stepper for CoreStep {
+    const READS_FLAGS: bool = true;
+    #[inline(always)]
+    fn step(&mut self, flagged: bool, _: impl Fn() -> [i64; 3]) -> usize {
+        self.core.step_on(self.fixed.unwrap_or(flagged))
+    }
+    #[inline(always)]
+    fn may_jump(&self) -> bool {
+        true
+    }
+    #[inline(always)]
+    fn jump(&mut self, h: [i64; 3], _: [i64; 3]) -> Option<[i64; 3]> {
+        self.core.jump(h)
+    }
+    #[inline(always)]
+    fn in_26(&self) -> bool {
+        self.fixed.is_none() && self.core.mode == RayMode::TwentySix
+    }
+}
+
+/// Walks one ray of an exact kind over `seg` (clipped into the grid) into
+/// `vis`: the lean stepper of the kind, or the core on wide frames.
+#[inline(always)]
+pub(crate) fn walk_exact<V: Visitor>(
+    seg: &Segment,
+    kind: RayKind,
+    vis: &mut V,
+    n: &mut CastCounters,
+) {
+    let f = Frame::new(seg);
+    if f.wide {
+        return walk_core(seg, kind, vis, n);
+    }
+    match kind {
+        RayKind::Six => walk(
+            &f,
+            Six {
+                s: TripodState::at(&f, [0; 3]),
+            },
+            vis,
+            n,
+        ),
+        RayKind::TwentySix => {
+            let plan = Plan26::new(&f);
+            let s = TwentySix {
+                pre: plan.pre,
+                pre_i: 0,
+                mid: Mid26State::at(&f, plan.mid_start),
+                mid_left: plan.mid,
+                post: plan.post,
+                post_i: 0,
+            };
+            walk(&f, s, vis, n)
+        }
+        _ => walk(&f, Adaptive::new(&f), vis, n),
+    }
+}
+
+/// [`walk_exact`] on the line engine's core, whatever the frame: what wide
+/// frames take, and the reference the lean steppers are tested against.
+pub(crate) fn walk_core<V: Visitor>(
+    seg: &Segment,
+    kind: RayKind,
+    vis: &mut V,
+    n: &mut CastCounters,
+) {
+    let f = Frame::new(seg);
+    let core = match kind {
+        RayKind::TwentySix => Core::at_26_start(&f),
+        _ => Core::at_tripod_in(&f, [0; 3]),
+    };
+    let fixed = match kind {
+        RayKind::Six => Some(true),
+        RayKind::TwentySix => Some(false),
+        _ => None,
+    };
+    walk(&f, CoreStep { core, fixed }, vis, n)
+}
+
+/// The driver: per brick, the visitor's jump box if the stepper can leave
+/// it in O(1), else the brick's voxels stepped into a run for the visitor.
+#[inline(always)]
+fn walk<S: Stepper, V: Visitor>(f: &Frame, mut s: S, vis: &mut V, n: &mut CastCounters) {
+    let steps = f.mask_steps();
+    let geo = BrickGeometry::new(f);
+    let te = f.tripod_steps() as i64;
+    let v0 = f.voxel_world([0; 3]);
+    let local = |v: IVec3| -> [i64; 3] {
+        std::array::from_fn(|j| f.sign[j] * i64::from(v[f.perm[j]] - v0[f.perm[j]]))
+    };
+    // Jumps are exact in i64 up to this extent.
+    let jumps = f.d[0] <= JUMP_MAX_DELTA;
+    let mut v = v0;
+    let mut t = 0i64;
+    let mut buf = RunBuf::new();
+    loop {
+        let b = v >> 3;
+        let brick = vis.enter(b);
+        if jumps
+            && s.may_jump()
+            && let Some((lo, hi)) = vis.jump_box(brick, b, v, s.in_26())
+        {
+            let c = local(v);
+            // Extent of the box ahead of v along each local axis, clipped to
+            // the end voxel.
+            let h: [i64; 3] = std::array::from_fn(|j| {
+                let w = f.perm[j];
+                i64::from(if f.sign[j] > 0 {
+                    hi[w] - v[w]
+                } else {
+                    v[w] - lo[w]
+                })
+                .min(f.end[j] - c[j])
+            });
+            if (0..3).all(|j| c[j] + h[j] >= f.end[j]) {
+                // The rest of the ray lies in the box: nothing to see.
+                return;
+            }
+            if let Some(d) = s.jump(h, c) {
+                n.jumps += 1;
+                for (j, &dj) in d.iter().enumerate() {
+                    v += steps[1 << j] * dj as i32;
+                    t += dj;
+                }
+                vis.jumped();
+                continue;
+            }
+        }
+        let recheck = S::READS_FLAGS && vis.recheck_on_mode_change(brick);
+        let base = vis.base(brick);
+        let reads = vis.reads(brick);
+        // The storage index moves by per-mask offsets inside the brick.
+        let mut i = base + ((v.x & 7) + 8 * (v.y & 7) + 64 * (v.z & 7)) as usize;
+        let mut cnt = 0;
+        let mut ended = false;
+        buf.clear();
+        loop {
+            if V::PER_VOXEL {
+                if reads && vis.voxel(brick, v, i) {
+                    n.visited += cnt as u64 + 1;
+                    return;
+                }
+            } else if reads {
+                buf.push((v, i));
+            }
+            cnt += 1;
+            if t >= te {
+                ended = true;
+                break;
+            }
+            let flag = S::READS_FLAGS && vis.flagged(brick, i);
+            let was = s.in_26();
+            let mask = s.step(flag, || local(v));
+            v += steps[mask];
+            // A table, not `count_ones` (a software popcount on the
+            // baseline x86-64 target).
+            t += MASK_STEPS[mask];
+            i = i.wrapping_add_signed(geo.local_offset[mask]);
+            if v >> 3 != b || (recheck && was != s.in_26()) || cnt == BUF {
+                break;
+            }
+        }
+        if !V::PER_VOXEL
+            && reads
+            && let Some(i) = vis.run(brick, buf.as_run())
+        {
+            n.visited += i as u64 + 1;
+            return;
+        }
+        n.visited += cnt as u64;
+        if ended {
+            return;
+        }
+    }
+}
+
+/// Steps a local move mask makes (its bit count).
+const MASK_STEPS: [i64; 8] = [0, 1, 1, 2, 1, 2, 2, 3];
+
+/// Per-ray tables of the in-brick stepping, by local move mask.
+struct BrickGeometry {
+    /// Change of the in-brick index `lx + 8 ly + 64 lz`.
+    local_offset: [isize; 8],
+}
+
+impl BrickGeometry {
+    fn new(f: &Frame) -> Self {
+        let axis: [isize; 3] =
+            std::array::from_fn(|j| f.sign[j] as isize * [1isize, 8, 64][f.perm[j]]);
+        BrickGeometry {
+            local_offset: std::array::from_fn(|m| {
+                (0..3).filter(|j| m >> j & 1 == 1).map(|j| axis[j]).sum()
+            }),
+        }
+    }
+}
+
+/// Walks one Amanatides–Woo ray over `seg` into `vis` (6-connected steps in
+/// `f64`; jumps by the stepper's own box exit, in 6 mode).
+#[inline(always)]
+pub(crate) fn walk_aw<V: Visitor>(seg: &Segment, vis: &mut V, n: &mut CastCounters) {
+    let [a, b] = [seg.a(), seg.b()].map(|p| DVec3::from_array(p.map(crate::fixed::to_f64)));
+    let Ok(mut s) = AwStepper::new(a, b) else {
+        return;
+    };
+    let dir = s.direction();
+    let off: [isize; 3] = std::array::from_fn(|k| dir[k] as isize * [1isize, 8, 64][k]);
+    let mut buf = RunBuf::new();
+    loop {
+        let mut v = s.voxel();
+        let bk = v >> 3;
+        let brick = vis.enter(bk);
+        if let Some((lo, hi)) = vis.jump_box(brick, bk, v, false) {
+            if !s.jump_past_box(lo, hi) {
+                return;
+            }
+            n.jumps += 1;
+            vis.jumped();
+            continue;
+        }
+        let base = vis.base(brick);
+        let reads = vis.reads(brick);
+        let mut i = base + ((v.x & 7) + 8 * (v.y & 7) + 64 * (v.z & 7)) as usize;
+        let mut cnt = 0;
+        let mut ended = false;
+        buf.clear();
+        loop {
+            if V::PER_VOXEL {
+                if reads && vis.voxel(brick, v, i) {
+                    n.visited += cnt as u64 + 1;
+                    return;
+                }
+            } else if reads {
+                buf.push((v, i));
+            }
+            cnt += 1;
+            let Some(axis) = s.next_axis() else {
+                ended = true;
+                break;
+            };
+            s.step();
+            v[axis] += dir[axis];
+            i = i.wrapping_add_signed(off[axis]);
+            if v >> 3 != bk || cnt == BUF {
+                break;
+            }
+        }
+        if !V::PER_VOXEL
+            && reads
+            && let Some(i) = vis.run(brick, buf.as_run())
+        {
+            n.visited += i as u64 + 1;
+            return;
+        }
+        n.visited += cnt as u64;
+        if ended {
+            return;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::line::adaptive::Core;
+    use crate::line::segment::{Frame, Segment};
+    use rand::{Rng, SeedableRng};
+
+    /// The lean adaptive stepper makes the adaptive core's moves, step for
+    /// step, under random flag sequences (runs of flagged and unflagged
+    /// voxels), to the segment's end.
+    #[test]
+    fn lean_adaptive_equals_core() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(314);
+        for round in 0..3000 {
+            let span = if round % 4 == 0 { 5.0 } else { 150.0 };
+            let p = |rng: &mut rand_chacha::ChaCha8Rng| -> [f64; 3] {
+                std::array::from_fn(|_| {
+                    let x: f64 = rng.random_range(-span..span);
+                    if rng.random_bool(0.2) { x.round() } else { x }
+                })
+            };
+            let seg = Segment::from_f64(p(&mut rng), p(&mut rng)).unwrap();
+            let f = Frame::new(&seg);
+            let mut core = Core::at_tripod_in(&f, [0; 3]);
+            let mut lean = Adaptive::new(&f);
+            let steps = f.tripod_steps();
+            let mut flagged = rng.random_bool(0.5);
+            let mut c = [0i64; 3];
+            let mut i = 0u64;
+            while core.c != f.end {
+                if rng.random_bool(0.1) {
+                    flagged = !flagged;
+                }
+                let m = core.step_on(flagged);
+                assert_eq!(lean.step(flagged, || c), m, "{seg:?} step {i}");
+                for (k, ck) in c.iter_mut().enumerate() {
+                    *ck += (m >> k & 1) as i64;
+                }
+                assert_eq!(c, core.c);
+                i += 1;
+                assert!(i <= steps);
+            }
+        }
+    }
+}
