@@ -451,13 +451,8 @@ fn walk<S: Stepper, V: Visitor>(f: &Frame, mut s: S, vis: &mut V, n: &mut CastCo
         let mut ended = false;
         buf.clear();
         loop {
-            if V::PER_VOXEL {
-                if reads && vis.voxel(brick, v, i) {
-                    n.visited += cnt as u64 + 1;
-                    return;
-                }
-            } else if reads {
-                buf.push((v, i));
+            if take(vis, brick, reads, (v, i), &mut buf, cnt, n) {
+                return;
             }
             cnt += 1;
             if t >= te {
@@ -476,18 +471,56 @@ fn walk<S: Stepper, V: Visitor>(f: &Frame, mut s: S, vis: &mut V, n: &mut CastCo
                 break;
             }
         }
-        if !V::PER_VOXEL
-            && reads
-            && let Some(i) = vis.run(brick, buf.as_run())
-        {
-            n.visited += i as u64 + 1;
-            return;
-        }
-        n.visited += cnt as u64;
-        if ended {
+        if hand_over(vis, brick, reads, &buf, cnt, n) || ended {
             return;
         }
     }
+}
+
+/// A stepped voxel (world, storage index), the `cnt`-th of its brick: to
+/// a per-voxel visitor at once (`true`: the ray ends there, counted), else
+/// into the run. Nothing for a brick the visitor does not read.
+#[inline(always)]
+fn take<V: Visitor>(
+    vis: &mut V,
+    brick: V::Brick,
+    reads: bool,
+    voxel: (IVec3, usize),
+    buf: &mut RunBuf,
+    cnt: usize,
+    n: &mut CastCounters,
+) -> bool {
+    if V::PER_VOXEL {
+        if reads && vis.voxel(brick, voxel.0, voxel.1) {
+            n.visited += cnt as u64 + 1;
+            return true;
+        }
+    } else if reads {
+        buf.push(voxel);
+    }
+    false
+}
+
+/// The end of a brick's stepping (`cnt` voxels): the run to a run
+/// visitor; `true` when the ray ends in it. Counts the voxels read.
+#[inline(always)]
+fn hand_over<V: Visitor>(
+    vis: &mut V,
+    brick: V::Brick,
+    reads: bool,
+    buf: &RunBuf,
+    cnt: usize,
+    n: &mut CastCounters,
+) -> bool {
+    if !V::PER_VOXEL
+        && reads
+        && let Some(i) = vis.run(brick, buf.as_run())
+    {
+        n.visited += i as u64 + 1;
+        return true;
+    }
+    n.visited += cnt as u64;
+    false
 }
 
 /// Steps a local move mask makes (its bit count).
@@ -541,13 +574,8 @@ pub(crate) fn walk_aw<V: Visitor>(seg: &Segment, vis: &mut V, n: &mut CastCounte
         let mut ended = false;
         buf.clear();
         loop {
-            if V::PER_VOXEL {
-                if reads && vis.voxel(brick, v, i) {
-                    n.visited += cnt as u64 + 1;
-                    return;
-                }
-            } else if reads {
-                buf.push((v, i));
+            if take(vis, brick, reads, (v, i), &mut buf, cnt, n) {
+                return;
             }
             cnt += 1;
             let Some(axis) = s.next_axis() else {
@@ -561,15 +589,7 @@ pub(crate) fn walk_aw<V: Visitor>(seg: &Segment, vis: &mut V, n: &mut CastCounte
                 break;
             }
         }
-        if !V::PER_VOXEL
-            && reads
-            && let Some(i) = vis.run(brick, buf.as_run())
-        {
-            n.visited += i as u64 + 1;
-            return;
-        }
-        n.visited += cnt as u64;
-        if ended {
+        if hand_over(vis, brick, reads, &buf, cnt, n) || ended {
             return;
         }
     }
