@@ -39,7 +39,9 @@ use super::RayKind;
 /// Counters of one ray (summed over an image).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct CastCounters {
-    /// Voxels handed to the visitor and read.
+    /// Voxels the walk stepped onto, up to where the ray ended (not those
+    /// jumped over; a grid brick's voxels count whether or not they are
+    /// read).
     pub visited: u64,
     /// Jumps over boxes.
     pub jumps: u64,
