@@ -9,7 +9,8 @@
 //! full slot); for a `.zarr` store voxkit wrote (read chunk by chunk as the
 //! rays reach it, never whole: [`PagedOccupancy`]) `stored_chunks`,
 //! `chunks_decoded` and `pages_built` instead of the voxel counts; `ray`, `skip`, `size`, `rays`, `hits`,
-//! `voxels_visited`, `bricks_skipped`, `load_ms` (reading, and voxelizing a
+//! `voxels_visited`, `bricks_skipped`, `rays_culled` (pixels whose tile no
+//! ray needed to be cast through), `load_ms` (reading, and voxelizing a
 //! mesh), `prepare_ms` (render structures), `render_ms` (per frame; the
 //! median over `--turntable` frames and `--reps` repetitions), for a
 //! volume with `--reps` 2 or more `floor_ms` (the memory floor: one
@@ -623,6 +624,7 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "hits": stats.hits,
         "voxels_visited": stats.voxels_visited,
         "bricks_skipped": stats.bricks_skipped,
+        "rays_culled": stats.rays_culled,
         "load_ms": load_ms,
         "prepare_ms": prepare_ms,
         "render_ms": render_ms,

@@ -95,6 +95,12 @@ pub trait RenderBricks: Sync {
             [0; 8]
         }
     }
+    /// The proximity cloud of every brick (x fastest), where the structure
+    /// holds it; `None` where bricks are read only as rays reach them (a
+    /// frame then casts every ray).
+    fn resident_clouds(&self) -> Option<&[u8]> {
+        None
+    }
     /// Whether `v` lies in the grid.
     #[inline(always)]
     fn contains_voxel(&self, v: Voxel) -> bool {
@@ -126,6 +132,9 @@ impl RenderBricks for OccupancyGrid {
     }
     fn voxel_color(&self, v: Voxel) -> Option<[u8; 4]> {
         self.color(v)
+    }
+    fn resident_clouds(&self) -> Option<&[u8]> {
+        Some(&self.dist)
     }
 }
 

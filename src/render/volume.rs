@@ -107,6 +107,7 @@ use crate::line::segment::Frame;
 
 use super::bricks::{BRICK, BrickRange, VolumeBricks};
 use super::occupancy::chessboard_distance;
+use super::tiles::TileMask;
 use super::walk::{BUF, CastCounters, Run, Visitor, walk_aw, walk_exact};
 use super::{
     GridRay, GridTransform, NormalMode, RayKind, RaySetup, RenderImage, RenderOptions, RenderStats,
@@ -594,6 +595,9 @@ struct FrameCtx<'a> {
     /// blocks) and the largest sample over each block of `2^l` bricks per
     /// side.
     pyramid: Vec<([i32; 3], Vec<f32>)>,
+    /// With skipping, the tiles whose rays may meet a brick that is not
+    /// skippable (the others' pixels are known without a walk).
+    tiles: TileMask,
 }
 
 impl<'a> FrameCtx<'a> {
@@ -621,7 +625,7 @@ impl<'a> FrameCtx<'a> {
             }
         };
         let bricks = scene.bricks.ranges();
-        let class = if opts.skip {
+        let class: Vec<BrickClass> = if opts.skip {
             let skip = chessboard_distance(scene.bricks.brick_dims(), |i| !quiet(&bricks[i], r));
             let flag = if opts.ray == RayKind::Adaptive {
                 chessboard_distance(scene.bricks.brick_dims(), |i| !quiet(&bricks[i], r + 1))
@@ -649,6 +653,11 @@ impl<'a> FrameCtx<'a> {
         } else {
             Vec::new()
         };
+        let tiles = if opts.skip {
+            TileMask::new(&setup, scene.bricks.brick_dims(), |i| class[i].skip == 0)
+        } else {
+            TileMask::all()
+        };
         FrameCtx {
             scene,
             vopts,
@@ -658,6 +667,7 @@ impl<'a> FrameCtx<'a> {
             dims,
             r,
             pyramid,
+            tiles,
         }
     }
 }
@@ -1165,11 +1175,18 @@ fn render_pixel<const TRI: bool>(
     hints: &[Option<IVec3>],
     n: &mut CastCounters,
 ) -> Pixel {
+    let vo = ctx.vopts;
+    // A culled tile's rays meet only skippable bricks: nothing to hit or
+    // accumulate, so they end as a walk would leave them (a MIP ray inside
+    // the volume still shows the window's low end).
+    let seen = ctx.tiles.may_see(x, y);
+    if !seen && vo.mode != VolumeMode::Mip {
+        return MISS;
+    }
     let (ray, seg) = ctx.setup.pixel(x, y);
     let Some(seg) = seg else { return MISS };
     let g = RayGeom::new(&ray, ctx.dims);
     let depth = |v: IVec3| ray.entry(v).0 as f32;
-    let vo = ctx.vopts;
     match vo.mode {
         VolumeMode::Mip => {
             // Start the running maximum just below a sample the ray is
@@ -1177,7 +1194,7 @@ fn render_pixel<const TRI: bool>(
             // the start, and the first voxel holding the maximum still
             // raises the running maximum, so the pixel, its hit and its
             // depth are those of the walk from the window's low end.
-            let floor = if ctx.opts.skip {
+            let floor = if ctx.opts.skip && seen {
                 mip_hint_floor::<TRI>(ctx, &g, &seg, hints)
             } else {
                 f32::NEG_INFINITY
@@ -1190,7 +1207,9 @@ fn render_pixel<const TRI: bool>(
                 },
                 hit: None,
             };
-            cast::<_, TRI>(ctx, &g, &seg, &mut acc, n);
+            if seen {
+                cast::<_, TRI>(ctx, &g, &seg, &mut acc, n);
+            }
             let gl = grey(acc.m, vo.window);
             let d = acc.hit.map_or(f32::INFINITY, depth);
             ([gl, gl, gl, 1.0], d, acc.hit)
@@ -1344,6 +1363,7 @@ pub fn render_volume(
             for x in 0..w {
                 let mut above = None;
                 for y in y0..y1 {
+                    counters.culled += u64::from(!ctx.tiles.may_see(x, y));
                     let hints = [above, left[(y - y0) as usize]];
                     let (c, d, v) = if tri {
                         render_pixel::<true>(&ctx, x, y, &hints, &mut counters)
@@ -1369,6 +1389,7 @@ pub fn render_volume(
     for (cn, hits) in counts {
         stats.voxels_visited += cn.visited;
         stats.bricks_skipped += cn.jumps;
+        stats.rays_culled += cn.culled;
         stats.hits += hits;
     }
     stats.render_ms = start.elapsed().as_secs_f64() * 1e3;

@@ -45,6 +45,8 @@ pub(crate) struct CastCounters {
     pub visited: u64,
     /// Jumps over boxes.
     pub jumps: u64,
+    /// Rays not cast (their tile was culled).
+    pub culled: u64,
 }
 
 /// Voxels stepped before they are handed over (a brick's path has at most
@@ -595,6 +597,52 @@ pub(crate) fn walk_aw<V: Visitor>(seg: &Segment, vis: &mut V, n: &mut CastCounte
             return;
         }
     }
+}
+
+/// The voxels a walk of `kind` steps onto along `seg`, in order, with no
+/// jumps and flags drawn at random per voxel (for the adaptive ray): for
+/// tests of what any walk may visit.
+#[cfg(test)]
+pub(crate) fn visited_voxels(seg: &Segment, kind: RayKind, seed: u64) -> Vec<IVec3> {
+    struct Record {
+        seed: u64,
+        seen: Vec<IVec3>,
+    }
+    impl Visitor for Record {
+        type Brick = IVec3;
+        fn enter(&mut self, b: IVec3) -> IVec3 {
+            b
+        }
+        fn base(&self, _: IVec3) -> usize {
+            0
+        }
+        fn jump_box(&mut self, _: IVec3, _: IVec3, _: IVec3, _: bool) -> Option<(IVec3, IVec3)> {
+            None
+        }
+        fn flagged(&self, b: IVec3, i: usize) -> bool {
+            let h =
+                (b.x as u64 * 73_856_093) ^ (b.y as u64 * 19_349_663) ^ (b.z as u64 * 83_492_791);
+            (h ^ self.seed ^ i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 62 == 0
+        }
+        fn recheck_on_mode_change(&self, _: IVec3) -> bool {
+            false
+        }
+        const PER_VOXEL: bool = true;
+        fn voxel(&mut self, _: IVec3, v: IVec3, _: usize) -> bool {
+            self.seen.push(v);
+            false
+        }
+    }
+    let mut vis = Record {
+        seed,
+        seen: Vec::new(),
+    };
+    let mut n = CastCounters::default();
+    match kind {
+        RayKind::AmanatidesWoo => walk_aw(seg, &mut vis, &mut n),
+        _ => walk_exact(seg, kind, &mut vis, &mut n),
+    }
+    vis.seen
 }
 
 #[cfg(test)]

@@ -143,6 +143,59 @@ fn random_grid(rng: &mut ChaCha8Rng) -> (BrickGrid, [usize; 3]) {
     (g, dims)
 }
 
+/// Tiles culled before casting (no brick with an occupied voxel within
+/// their rays' reach) hold exactly the pixels the cast rays give: sparse
+/// clusters in larger grids, every ray kind, smooth and face normals,
+/// cameras near and far, perspective and orthographic.
+#[test]
+fn culled_tiles_equal_cast_rays() {
+    let mut rng = ChaCha8Rng::seed_from_u64(909);
+    let (mut culled, mut rays) = (0, 0);
+    for round in 0..12 {
+        let dims = [
+            rng.random_range(30..120),
+            rng.random_range(30..120),
+            rng.random_range(30..120),
+        ];
+        let mut g = BrickGrid::new();
+        for _ in 0..rng.random_range(1..4) {
+            let c = IVec3::from_array(dims.map(|d| rng.random_range(0..d as i32)));
+            for _ in 0..rng.random_range(1..60) {
+                let v = c + IVec3::new(
+                    rng.random_range(-4..5),
+                    rng.random_range(-4..5),
+                    rng.random_range(-4..5),
+                );
+                if (0..3).all(|k| v[k] >= 0 && v[k] < dims[k] as i32) {
+                    g.insert(v);
+                }
+            }
+        }
+        let occ = OccupancyGrid::new(&g, dims, MemoryLimit::DEFAULT).unwrap();
+        let xf = GridTransform::from_frame(&GridFrame::new(DVec3::ZERO, 1.0, dims)).unwrap();
+        for _ in 0..3 {
+            let cam = random_camera(&mut rng, dims);
+            for kind in RayKind::ALL {
+                for normals in [NormalMode::Smooth, NormalMode::Face] {
+                    let o = |skip| RenderOptions {
+                        normals,
+                        ..opts(88, 64, kind, skip)
+                    };
+                    let (with, st) = render_grid(&occ, &xf, &cam, &o(true)).unwrap();
+                    let without = render_grid(&occ, &xf, &cam, &o(false)).unwrap().0;
+                    assert_eq!(
+                        with, without,
+                        "round {round} {kind:?} {cam:?}: culling changed the image"
+                    );
+                    culled += st.rays_culled;
+                    rays += st.rays;
+                }
+            }
+        }
+    }
+    assert!(culled * 4 > rays, "only {culled} of {rays} rays culled");
+}
+
 /// Adaptive (and A–W) first hits equal the 6-ray's on every pixel, with and
 /// without skipping, and skipping changes no pixel of any kind.
 #[test]
