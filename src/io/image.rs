@@ -71,6 +71,10 @@ fn encode_png_into<W: Write>(w: W, width: u32, height: u32, rgba: &[u8]) -> Resu
     let mut enc = png::Encoder::new(w, width, height);
     enc.set_color(png::ColorType::Rgba);
     enc.set_depth(png::BitDepth::Eight);
+    // fdeflate's PNG-tuned compressor: a 1024² render encodes in ~4 ms
+    // instead of 56–71 ms (`Balanced`), for files 1.2–1.9× larger; the
+    // encode was ~6% of a whole `voxkit render` command.
+    enc.set_compression(png::Compression::Fast);
     let mut writer = enc.write_header().map_err(png_err)?;
     writer.write_image_data(rgba).map_err(png_err)?;
     writer.finish().map_err(png_err)
