@@ -397,8 +397,7 @@ impl VolumeBricks {
     /// The storage index of voxel `v` (inside the volume).
     #[inline(always)]
     pub(crate) fn index(&self, v: IVec3) -> usize {
-        let local = (v.x & 7) | (v.y & 7) << 3 | (v.z & 7) << 6;
-        (self.brick_index(v >> 3) << 9) | local as usize
+        (self.brick_index(v >> 3) << 9) | super::occupancy::local_index(v)
     }
 
     /// Index steps of a move along x, y, z that stays inside one brick.

@@ -435,8 +435,10 @@ pub(crate) fn word_bit(v: Voxel) -> (usize, u32) {
     ((v.z & 7) as usize, ((v.x & 7) + 8 * (v.y & 7)) as u32)
 }
 
+/// The in-brick index `lx + 8 ly + 64 lz` of voxel `v`: the bricks' bit
+/// order and the volume bricks' sample order.
 #[inline(always)]
-fn local_index(v: Voxel) -> usize {
+pub(crate) fn local_index(v: Voxel) -> usize {
     ((v.x & 7) + 8 * (v.y & 7) + 64 * (v.z & 7)) as usize
 }
 

@@ -1180,6 +1180,7 @@ fn render_pixel<const TRI: bool>(
     // accumulate, so they end as a walk would leave them (a MIP ray inside
     // the volume still shows the window's low end).
     let seen = ctx.tiles.may_see(x, y);
+    n.culled += u64::from(!seen);
     if !seen && vo.mode != VolumeMode::Mip {
         return MISS;
     }
@@ -1363,7 +1364,6 @@ pub fn render_volume(
             for x in 0..w {
                 let mut above = None;
                 for y in y0..y1 {
-                    counters.culled += u64::from(!ctx.tiles.may_see(x, y));
                     let hints = [above, left[(y - y0) as usize]];
                     let (c, d, v) = if tri {
                         render_pixel::<true>(&ctx, x, y, &hints, &mut counters)

@@ -35,6 +35,7 @@ use crate::line::segment::{Frame, Segment};
 use crate::line::tripod6::{JUMP_MAX_DELTA, TripodState};
 
 use super::RayKind;
+use super::occupancy::local_index;
 
 /// Counters of one ray (summed over an image).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -450,7 +451,7 @@ fn walk<S: Stepper, V: Visitor>(f: &Frame, mut s: S, vis: &mut V, n: &mut CastCo
         let base = vis.base(brick);
         let reads = vis.reads(brick);
         // The storage index moves by per-mask offsets inside the brick.
-        let mut i = base + ((v.x & 7) + 8 * (v.y & 7) + 64 * (v.z & 7)) as usize;
+        let mut i = base + local_index(v);
         let mut cnt = 0;
         let mut ended = false;
         buf.clear();
@@ -573,7 +574,7 @@ pub(crate) fn walk_aw<V: Visitor>(seg: &Segment, vis: &mut V, n: &mut CastCounte
         }
         let base = vis.base(brick);
         let reads = vis.reads(brick);
-        let mut i = base + ((v.x & 7) + 8 * (v.y & 7) + 64 * (v.z & 7)) as usize;
+        let mut i = base + local_index(v);
         let mut cnt = 0;
         let mut ended = false;
         buf.clear();
