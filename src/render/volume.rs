@@ -792,8 +792,6 @@ fn lt_min(a: f64, b: f64) -> f64 {
     if b < a { b } else { a }
 }
 
-/// `a·(1 − t) + b·t` for `t ∈ [0, 1]`, where a corner of weight 0 does not
-/// count even if it is `−∞`, and `+∞` against `−∞` gives `−∞`.
 /// What a mode does with the visited voxels of one ray.
 trait Accum {
     /// Whether `visit` needs the stretch length.
@@ -1505,6 +1503,62 @@ mod tests {
         fn visit(&mut self, v: IVec3, s: f32, _len: f64) -> bool {
             self.0.push((v, s));
             false
+        }
+    }
+
+    /// Chords and column stretches with plain comparisons equal those of
+    /// `f64::min`/`max` (up to the sign of a zero), and are never NaN, on
+    /// rays whose direction has zero, subnormal (`1/d` overflows), tiny and
+    /// ordinary components, starting on and off voxel faces.
+    #[test]
+    fn chords_equal_the_nan_aware_reference() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+        let dims = [9, 7, 8];
+        for _ in 0..20_000 {
+            let o = DVec3::from_array(std::array::from_fn(|k| {
+                let x = rng.random_range(-0.5..dims[k] as f64 - 0.5);
+                if rng.random_bool(0.2) {
+                    x.round() + 0.5
+                } else {
+                    x
+                }
+            }));
+            let d = DVec3::from_array(std::array::from_fn(|_| {
+                let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+                sign * match rng.random_range(0..5) {
+                    0 => 0.0,
+                    1 => 1e-310,
+                    2 => 1e-200,
+                    _ => rng.random_range(0.01..1.0),
+                }
+            }));
+            let g = RayGeom::new(&GridRay { o, d }, dims);
+            // The reference: `1/d` where it is finite, parallel elsewhere,
+            // bounds ordered and clipped by `f64::min`/`max`.
+            let slab = |k: usize, c: i32| {
+                let inv = 1.0 / d[k];
+                if d[k] == 0.0 || !inv.is_finite() {
+                    return (f64::NEG_INFINITY, f64::INFINITY);
+                }
+                let a = (c as f64 - 0.5 - o[k]) * inv;
+                let b = (c as f64 + 0.5 - o[k]) * inv;
+                (a.min(b), a.max(b))
+            };
+            let v = IVec3::from_array(std::array::from_fn(|k| rng.random_range(0..dims[k])));
+            let (mut a, mut b) = (g.t0, g.t1);
+            for k in 0..3 {
+                let (p, q) = slab(k, v[k]);
+                (a, b) = (a.max(p), b.min(q));
+            }
+            let got = g.chord(v);
+            assert!(!got.0.is_nan() && !got.1.is_nan(), "{o} {d} {v}");
+            assert_eq!(got, (a, b), "chord of {v}, ray {o} + t {d}");
+            assert_eq!(gt_max(got.1 - got.0, 0.0), (b - a).max(0.0));
+            for k in 0..3 {
+                let (p, q) = slab(k, v[k]);
+                assert_eq!(g.column(k, v[k]), (g.t0.max(p), g.t1.min(q)));
+            }
         }
     }
 
