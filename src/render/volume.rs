@@ -812,6 +812,14 @@ trait Accum {
     ) -> Option<usize> {
         (0..buf.len().min(BUF)).find(|&i| self.visit(buf[i].0, s[i], len[i]))
     }
+    /// Takes a run's samples (`n` of them; zeros past `n`) before their
+    /// stretch lengths are computed; `false` when no voxel of the run can
+    /// change the result, and the run is then not visited (compositing:
+    /// every opacity is 0, which no stretch length makes visible).
+    #[inline(always)]
+    fn prepare(&mut self, _s: &[f32; BUF], _n: usize) -> bool {
+        true
+    }
     /// A value such that boxes whose samples all lie at or below it can be
     /// jumped now, beyond the frame's static classification (MIP: the
     /// running maximum).
@@ -870,6 +878,23 @@ struct Composite<'a> {
     c: [f32; 3],
     a: f32,
     hit: Option<IVec3>,
+    /// The transfer function's opacities of the run being visited (from
+    /// [`Accum::prepare`]).
+    tau: [f32; BUF],
+}
+
+impl<'a> Composite<'a> {
+    fn new(tf: &'a TransferFunction, window: (f32, f32), ref_len: f64) -> Self {
+        Composite {
+            tf,
+            window,
+            inv_ref: 1.0 / ref_len,
+            c: [0.0; 3],
+            a: 0.0,
+            hit: None,
+            tau: [0.0; BUF],
+        }
+    }
 }
 
 impl Accum for Composite<'_> {
@@ -878,12 +903,32 @@ impl Accum for Composite<'_> {
     fn visit(&mut self, v: IVec3, s: f32, len: f64) -> bool {
         let (mut run_s, mut run_len) = ([0.0; BUF], [0.0; BUF]);
         (run_s[0], run_len[0]) = (s, len);
-        self.visit_run(&[(v, 0)], &run_s, &run_len).is_some()
+        self.prepare(&run_s, 1) && self.visit_run(&[(v, 0)], &run_s, &run_len).is_some()
     }
 
-    /// The run's opacities first (the transfer function's and the
-    /// corrected ones, in lanes of 8 across the run's voxels), then
-    /// front-to-back accumulation in order.
+    /// The run's opacities, in lanes of 8 (whole lanes: a loop with a
+    /// remainder would take short runs, the common case, through scalar
+    /// code; the padding's values are computed and not used). A run of
+    /// transparent voxels (`τ = 0` gives `α = 0` exactly, whatever the
+    /// stretch) adds nothing.
+    #[inline(always)]
+    fn prepare(&mut self, s: &[f32; BUF], n: usize) -> bool {
+        let lanes = n.min(BUF).div_ceil(8) * 8;
+        let mut any = false;
+        for (t, s) in self.tau[..lanes]
+            .chunks_exact_mut(8)
+            .zip(s[..lanes].chunks_exact(8))
+        {
+            let t: &mut [f32; 8] = t.try_into().unwrap();
+            self.tf.opacity_lanes(s.try_into().unwrap(), t);
+            any |= t.iter().fold(false, |a, &x| a | (x > 0.0));
+        }
+        any
+    }
+
+    /// The corrected opacities first (in lanes of 8 across the run's
+    /// voxels, from [`Accum::prepare`]'s), then front-to-back accumulation
+    /// in order.
     #[inline(always)]
     fn visit_run(
         &mut self,
@@ -892,18 +937,8 @@ impl Accum for Composite<'_> {
         len: &[f64; BUF],
     ) -> Option<usize> {
         let n = buf.len().min(BUF);
-        // Whole lanes of 8 (the padding's values are computed and not
-        // used): a loop with a remainder would take short runs, the
-        // common case, through scalar code.
         let lanes = n.div_ceil(8) * 8;
-        let mut tau = [0f32; BUF];
-        for (t, s) in tau[..lanes]
-            .chunks_exact_mut(8)
-            .zip(s[..lanes].chunks_exact(8))
-        {
-            self.tf
-                .opacity_lanes(s.try_into().unwrap(), t.try_into().unwrap());
-        }
+        let tau = &self.tau;
         let mut y = [0f32; BUF];
         for (y, &l) in y[..lanes].iter_mut().zip(&len[..lanes]) {
             *y = (l * self.inv_ref) as f32;
@@ -967,6 +1002,14 @@ fn consume<A: Accum, const TRI: bool>(
     let mut lens = [0f64; BUF];
     if !TRI {
         bricks.gather(buf, &mut samples[..buf.len()]);
+        if !acc.prepare(&samples, buf.len()) {
+            // No stretch is needed; the 26-ray's column bookkeeping
+            // still moves to the run's last voxel.
+            if let (Some((major, prev)), Some(&(v, _))) = (column, buf.last()) {
+                *prev = v[major];
+            }
+            return None;
+        }
     }
     if TRI || A::LEN {
         for (i, &(v, idx)) in buf.iter().enumerate() {
@@ -986,6 +1029,9 @@ fn consume<A: Accum, const TRI: bool>(
             }
             lens[i] = gt_max(st.1 - st.0, 0.0);
         }
+    }
+    if TRI && !acc.prepare(&samples, buf.len()) {
+        return None;
     }
     acc.visit_run(buf, &samples, &lens)
 }
@@ -1243,14 +1289,7 @@ fn render_pixel<const TRI: bool>(
             }
         }
         VolumeMode::Composite => {
-            let mut acc = Composite {
-                tf: &vo.transfer,
-                window: vo.window,
-                inv_ref: 1.0 / ctx.scene.ref_len,
-                c: [0.0; 3],
-                a: 0.0,
-                hit: None,
-            };
+            let mut acc = Composite::new(&vo.transfer, vo.window, ctx.scene.ref_len);
             cast::<_, TRI>(ctx, &g, &seg, &mut acc, n);
             match acc.hit {
                 Some(v) if acc.a > 0.0 => {
