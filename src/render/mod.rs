@@ -242,10 +242,16 @@ impl RenderImage {
     /// A `width × height` image of misses: no colour, `depth` everywhere, no hit.
     pub(crate) fn blank(width: u32, height: u32, depth: f32) -> Self {
         let n = width as usize * height as usize;
+        // Filled rather than asked zeroed: a zeroed request of this size
+        // gets lazily mapped 4 KiB pages (crate::alloc), whose first
+        // touches in the render cost more than writing the zeros into
+        // huge pages here.
+        let mut color = Vec::with_capacity(n);
+        color.resize(n, [0.0; 4]);
         RenderImage {
             width,
             height,
-            color: vec![[0.0; 4]; n],
+            color,
             depth: vec![depth; n],
             hit: vec![None; n],
         }
