@@ -87,10 +87,19 @@ impl<'g, G: RenderBricks> Visitor for FirstHit<'g, G> {
         (v.cmpge(lo).all() && v.cmple(hi).all()).then_some((lo, hi))
     }
 
+    /// A cloud value `k ≥ 1` says the brick holds no occupied voxel;
+    /// otherwise its bits say.
     #[inline(always)]
-    fn reads(&self, (at, _): Self::Brick) -> bool {
+    fn reads(&self, (at, k): Self::Brick) -> bool {
         // A fold, not `!= [0; 8]` (a `memcmp` call per brick).
-        self.occ.flags(at).occ.iter().fold(0, |a, &w| a | w) != 0
+        k == 0 && self.occ.flags(at).occ.iter().fold(0, |a, &w| a | w) != 0
+    }
+
+    /// `k ≥ 2`: no occupied voxel within a brick of this one, so none of
+    /// its voxels is within one voxel of an occupied one (flagged).
+    #[inline(always)]
+    fn inert(&self, (_, k): Self::Brick) -> bool {
+        k >= 2
     }
 
     #[inline(always)]

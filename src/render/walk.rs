@@ -120,6 +120,13 @@ pub(crate) trait Visitor {
     fn reads(&self, _brick: Self::Brick) -> bool {
         true
     }
+    /// Whether the brick is inert: no voxel of it is read and none is
+    /// flagged, so the ray only steps through it (no run, no flag tests,
+    /// no storage index). Implies `!reads(brick)`.
+    #[inline(always)]
+    fn inert(&self, _brick: Self::Brick) -> bool {
+        false
+    }
     /// Whether the voxel at storage index `i` ([`Visitor::base`] plus the
     /// in-brick index) is flagged (read by the adaptive ray).
     fn flagged(&self, brick: Self::Brick, i: usize) -> bool;
@@ -448,6 +455,27 @@ fn walk<S: Stepper, V: Visitor>(f: &Frame, mut s: S, vis: &mut V, n: &mut CastCo
             }
         }
         let recheck = S::READS_FLAGS && vis.recheck_on_mode_change(brick);
+        if vis.inert(brick) {
+            // The same steps as below with every flag false and nothing
+            // taken: only the exits (end, brick, mode change) are tested.
+            let mut cnt = 0;
+            loop {
+                cnt += 1;
+                if t >= te {
+                    n.visited += cnt;
+                    return;
+                }
+                let was = s.in_26();
+                let mask = s.step(false, || local(v));
+                v += steps[mask];
+                t += MASK_STEPS[mask];
+                if v >> 3 != b || (recheck && was != s.in_26()) {
+                    break;
+                }
+            }
+            n.visited += cnt;
+            continue;
+        }
         let base = vis.base(brick);
         let reads = vis.reads(brick);
         // The storage index moves by per-mask offsets inside the brick.

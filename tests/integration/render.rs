@@ -120,6 +120,20 @@ fn trap_scenes(rng: &mut ChaCha8Rng) -> Vec<(BrickGrid, [usize; 3])> {
         ));
     }
     scenes.push((g, dims));
+    // Two small clusters far apart in a large box: most bricks are two or
+    // more bricks from anything occupied (inert: stepped through without
+    // flag tests), with flagged bricks between.
+    let dims = [96, 80, 104];
+    let mut g = BrickGrid::new();
+    for c in [IVec3::new(20, 18, 25), IVec3::new(70, 60, 80)] {
+        for d in 0..27 {
+            let o = IVec3::new(d % 3, d / 3 % 3, d / 9) - 1;
+            if (d * 7) % 3 != 0 {
+                g.insert(c + o * 2);
+            }
+        }
+    }
+    scenes.push((g, dims));
     scenes
 }
 
