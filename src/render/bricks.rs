@@ -347,6 +347,25 @@ impl VolumeBricks {
         self.source
     }
 
+    /// The smallest and largest sample of a volume of 8- or 16-bit
+    /// integers (every sample is then one of at most 65,536 values, exact
+    /// in `f32`); `None` for other types.
+    pub(crate) fn small_integer_range(&self) -> Option<(i32, i32)> {
+        if !matches!(
+            self.store,
+            Store::I8(_) | Store::U8(_) | Store::I16(_) | Store::U16(_)
+        ) {
+            return None;
+        }
+        let (lo, hi) = self
+            .ranges
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), r| {
+                (lo.min(r.min[0]), hi.max(r.max[0]))
+            });
+        (lo <= hi).then_some((lo as i32, hi as i32))
+    }
+
     /// Bytes held: the bricks (padding included) and the brick ranges.
     pub fn heap_bytes(&self) -> usize {
         let samples = with_store!(&self.store, v => std::mem::size_of_val(&v[..]));

@@ -40,9 +40,17 @@ const LN2_LO: f32 = -2.121_944_4e-4;
 /// ```
 #[inline(always)]
 pub fn corrected_opacity(tau: f32, y: f32) -> f32 {
+    corrected_opacity_from_log(tau, ln_one_minus(tau), y)
+}
+
+/// [`corrected_opacity`] given `ln_tau = ln_one_minus(tau)` (computed once
+/// per sample value where samples repeat: a table over an integer volume's
+/// values), bit for bit.
+#[inline(always)]
+pub(crate) fn corrected_opacity_from_log(tau: f32, ln_tau: f32, y: f32) -> f32 {
     // Selects rather than branches throughout, so that a loop over a run
     // of voxels vectorises.
-    let u = (y * ln_one_minus(tau)).max(-87.0);
+    let u = (y * ln_tau).max(-87.0);
     let alpha = neg_expm1(u);
     let full = if y > 0.0 { 1.0 } else { 0.0 };
     if tau >= 1.0 { full } else { alpha }
@@ -52,7 +60,7 @@ pub fn corrected_opacity(tau: f32, y: f32) -> f32 {
 /// `s = (m − 1)/(m + 1)` for `1 − τ = 2^e m`, `m ∈ [√½, 1.42]`, with
 /// `m − 1` formed exactly from `τ` (no rounding of `1 − τ` to cancel).
 #[inline(always)]
-fn ln_one_minus(tau: f32) -> f32 {
+pub(crate) fn ln_one_minus(tau: f32) -> f32 {
     // τ ≥ ½: `1 − τ ∈ [0, ½]` is exact (Sterbenz; no subnormals below 1:
     // `1 − τ ≥ 2^-24` or 0, whose garbage the caller discards).
     let bits = (1.0 - tau).to_bits();

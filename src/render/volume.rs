@@ -107,6 +107,7 @@ use crate::line::segment::Frame;
 
 use super::bricks::{BRICK, BrickRange, VolumeBricks};
 use super::occupancy::chessboard_distance;
+use super::opacity::{corrected_opacity_from_log, ln_one_minus};
 use super::tiles::TileMask;
 use super::walk::{BUF, CastCounters, Run, Visitor, walk_aw, walk_exact};
 use super::{
@@ -598,6 +599,9 @@ struct FrameCtx<'a> {
     /// With skipping, the tiles whose rays may meet a brick that is not
     /// skippable (the others' pixels are known without a walk).
     tiles: TileMask,
+    /// Compositing nearest samples of a volume of 8- or 16-bit integers:
+    /// the per-value table.
+    table: Option<ValueTable>,
 }
 
 impl<'a> FrameCtx<'a> {
@@ -658,6 +662,10 @@ impl<'a> FrameCtx<'a> {
         } else {
             TileMask::all()
         };
+        let table = (vopts.mode == VolumeMode::Composite && vopts.sampling == Sampling::Nearest)
+            .then(|| scene.bricks.small_integer_range())
+            .flatten()
+            .map(|range| ValueTable::new(&vopts.transfer, vopts.window, range));
         FrameCtx {
             scene,
             vopts,
@@ -668,6 +676,7 @@ impl<'a> FrameCtx<'a> {
             r,
             pyramid,
             tiles,
+            table,
         }
     }
 }
@@ -870,29 +879,82 @@ impl Accum for Iso {
     }
 }
 
+/// Compositing's per-sample work on a volume of 8- or 16-bit integers,
+/// done once per value of its range rather than per visited voxel: the
+/// transfer function's opacity `τ`, `ln(1 − τ)` and the colour, each the
+/// same arithmetic on the same `f32` value as the per-voxel path, so bit
+/// for bit what it gives.
+struct ValueTable {
+    lo: i32,
+    /// `(τ, ln(1 − τ))` of value `lo + i`.
+    opacity: Vec<[f32; 2]>,
+    /// Colour of value `lo + i`.
+    color: Vec<[f32; 3]>,
+}
+
+impl ValueTable {
+    /// The table over the values `lo..=hi` (at most 65,536 of them).
+    fn new(tf: &TransferFunction, window: (f32, f32), (lo, hi): (i32, i32)) -> Self {
+        let values = || (lo..=hi).map(|v| v as f32);
+        ValueTable {
+            lo,
+            opacity: values()
+                .map(|s| {
+                    let tau = tf.opacity(s);
+                    [tau, ln_one_minus(tau)]
+                })
+                .collect(),
+            color: values().map(|s| sample_color(tf, window, s)).collect(),
+        }
+    }
+
+    /// The entry of sample `s` (a value of the range; padding lanes may
+    /// hold others, clamped: their entries are not used).
+    #[inline(always)]
+    fn index(&self, s: f32) -> usize {
+        ((s as i32).saturating_sub(self.lo).max(0) as usize).min(self.opacity.len() - 1)
+    }
+}
+
+/// The colour compositing gives sample `s`: the transfer function's, or
+/// the window's grey level where its points carry none.
+#[inline(always)]
+fn sample_color(tf: &TransferFunction, window: (f32, f32), s: f32) -> [f32; 3] {
+    tf.color(s).unwrap_or_else(|| [grey(s, window); 3])
+}
+
 /// Compositing: premultiplied colour, opacity, first contributing voxel.
 struct Composite<'a> {
     tf: &'a TransferFunction,
     window: (f32, f32),
+    table: Option<&'a ValueTable>,
     inv_ref: f64,
     c: [f32; 3],
     a: f32,
     hit: Option<IVec3>,
     /// The transfer function's opacities of the run being visited (from
-    /// [`Accum::prepare`]).
+    /// [`Accum::prepare`]), and with a table their `ln(1 − τ)`.
     tau: [f32; BUF],
+    ln_tau: [f32; BUF],
 }
 
 impl<'a> Composite<'a> {
-    fn new(tf: &'a TransferFunction, window: (f32, f32), ref_len: f64) -> Self {
+    fn new(
+        tf: &'a TransferFunction,
+        window: (f32, f32),
+        table: Option<&'a ValueTable>,
+        ref_len: f64,
+    ) -> Self {
         Composite {
             tf,
             window,
+            table,
             inv_ref: 1.0 / ref_len,
             c: [0.0; 3],
             a: 0.0,
             hit: None,
             tau: [0.0; BUF],
+            ln_tau: [0.0; BUF],
         }
     }
 }
@@ -915,6 +977,17 @@ impl Accum for Composite<'_> {
     fn prepare(&mut self, s: &[f32; BUF], n: usize) -> bool {
         let lanes = n.min(BUF).div_ceil(8) * 8;
         let mut any = false;
+        if let Some(table) = self.table {
+            for ((t, l), &s) in self.tau[..lanes]
+                .iter_mut()
+                .zip(&mut self.ln_tau[..lanes])
+                .zip(&s[..lanes])
+            {
+                [*t, *l] = table.opacity[table.index(s)];
+                any |= *t > 0.0;
+            }
+            return any;
+        }
         for (t, s) in self.tau[..lanes]
             .chunks_exact_mut(8)
             .zip(s[..lanes].chunks_exact(8))
@@ -944,13 +1017,26 @@ impl Accum for Composite<'_> {
             *y = (l * self.inv_ref) as f32;
         }
         let mut alpha = [0f32; BUF];
-        for ((a, t), y) in alpha[..lanes]
-            .chunks_exact_mut(8)
-            .zip(tau[..lanes].chunks_exact(8))
-            .zip(y[..lanes].chunks_exact(8))
-        {
-            for k in 0..8 {
-                a[k] = corrected_opacity(t[k], y[k]);
+        if self.table.is_some() {
+            for (((a, t), l), y) in alpha[..lanes]
+                .chunks_exact_mut(8)
+                .zip(tau[..lanes].chunks_exact(8))
+                .zip(self.ln_tau[..lanes].chunks_exact(8))
+                .zip(y[..lanes].chunks_exact(8))
+            {
+                for k in 0..8 {
+                    a[k] = corrected_opacity_from_log(t[k], l[k], y[k]);
+                }
+            }
+        } else {
+            for ((a, t), y) in alpha[..lanes]
+                .chunks_exact_mut(8)
+                .zip(tau[..lanes].chunks_exact(8))
+                .zip(y[..lanes].chunks_exact(8))
+            {
+                for k in 0..8 {
+                    a[k] = corrected_opacity(t[k], y[k]);
+                }
             }
         }
         for i in 0..n {
@@ -962,10 +1048,10 @@ impl Accum for Composite<'_> {
             if self.hit.is_none() {
                 self.hit = Some(buf[i].0);
             }
-            let col = self
-                .tf
-                .color(s[i])
-                .unwrap_or_else(|| [grey(s[i], self.window); 3]);
+            let col = match self.table {
+                Some(table) => table.color[table.index(s[i])],
+                None => sample_color(self.tf, self.window, s[i]),
+            };
             let w = (1.0 - self.a) * alpha;
             for (ck, k) in self.c.iter_mut().zip(col) {
                 *ck += w * k;
@@ -1289,7 +1375,12 @@ fn render_pixel<const TRI: bool>(
             }
         }
         VolumeMode::Composite => {
-            let mut acc = Composite::new(&vo.transfer, vo.window, ctx.scene.ref_len);
+            let mut acc = Composite::new(
+                &vo.transfer,
+                vo.window,
+                ctx.table.as_ref(),
+                ctx.scene.ref_len,
+            );
             cast::<_, TRI>(ctx, &g, &seg, &mut acc, n);
             match acc.hit {
                 Some(v) if acc.a > 0.0 => {

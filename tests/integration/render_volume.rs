@@ -861,3 +861,56 @@ fn nan_samples_and_bad_options() {
         "the memory limit is checked"
     );
 }
+
+/// A volume of 8- or 16-bit integers composites exactly as its `f32` copy
+/// (compositing reads the integer types' opacities, `ln(1 − τ)` and
+/// colours from a per-value table, the `f32` volume computes them per
+/// voxel): every ray kind, coloured and ramp transfer functions, value
+/// ranges with negative values and values past 255.
+#[test]
+fn integer_volumes_composite_like_their_f32_copies() {
+    let mut rng = ChaCha8Rng::seed_from_u64(1616);
+    let mut cases = 0;
+    for round in 0..40 {
+        let vol = random_volume(&mut rng);
+        let VolumeData::F32(values) = &vol.data else {
+            unreachable!()
+        };
+        if values.iter().any(|v| v.is_nan()) {
+            continue;
+        }
+        let shift = [0.0, -100.0, 20000.0][round % 3];
+        let shifted: Vec<f32> = values.iter().map(|v| v + shift).collect();
+        let max = shifted.iter().fold(f32::NEG_INFINITY, |m, &v| m.max(v));
+        let mut typed = vec![VolumeData::I16(shifted.iter().map(|&v| v as i16).collect())];
+        if shift >= 0.0 {
+            typed.push(VolumeData::U16(shifted.iter().map(|&v| v as u16).collect()));
+        }
+        if shift == 0.0 && max <= 255.0 {
+            typed.push(VolumeData::U8(shifted.iter().map(|&v| v as u8).collect()));
+        }
+        if shift > 0.0 {
+            typed.remove(0);
+        }
+        let reference = ScalarVolume::new(vol.dims, VolumeData::F32(shifted), vol.frame).unwrap();
+        let s_ref = scene(&reference);
+        let cam = random_camera(&mut rng, &reference);
+        for mut vo in random_modes(&mut rng, &reference) {
+            if vo.mode != VolumeMode::Composite {
+                continue;
+            }
+            vo.sampling = Sampling::Nearest;
+            for kind in RayKind::ALL {
+                let o = opts(40, 32, kind, rng.random_bool(0.5));
+                let (want, _) = render(&s_ref, &cam, &o, &vo);
+                for data in &typed {
+                    let v = ScalarVolume::new(vol.dims, data.clone(), vol.frame).unwrap();
+                    let (got, _) = render(&scene(&v), &cam, &o, &vo);
+                    assert_eq!(got, want, "{kind:?}, {:?}", v.data.scalar_type());
+                    cases += 1;
+                }
+            }
+        }
+    }
+    assert!(cases >= 100, "only {cases} cases");
+}
