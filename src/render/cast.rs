@@ -6,10 +6,16 @@
 //! Skipping (Cohen & Sheffer's proximity clouds at brick granularity): in a
 //! brick whose cloud value is `k ≥ 1`, the box of bricks within `k − 1` is
 //! free of occupied voxels, and shrunk by one voxel free of flags; the ray
-//! jumps to where it would first leave that box, in O(1), in exactly the
-//! state stepping would reach (the 6- and 26-rays in the empty box, the
-//! adaptive ray in the flag-free box and only in 26 mode, where stepping
-//! would stay in 26 mode). So skipping changes no pixel.
+//! jumps to where it would first leave that box, in O(1): the 6- and
+//! 26-rays in the empty box, in exactly the state stepping would reach; the
+//! adaptive ray in 26 mode in the flag-free box (where stepping would stay
+//! in 26 mode), and in 6 mode, like the 6-ray, in the empty box, leaving it
+//! on the tripod path (a 26 stretch's voxels lie on the tripod path, so
+//! the 6 mode always walks it): every occupied voxel the 6-ray meets after
+//! the box is still met in 6 mode. So skipping changes no pixel. (Stepping
+//! in 6 mode would switch to 26 mode in the empty box; the jump keeps the
+//! 6 mode, which a flagged brick needs next anyway: on the bunny at 512³,
+//! 43% fewer voxels visited and a faster frame than waiting for the switch.)
 
 use glam::IVec3;
 
@@ -32,8 +38,8 @@ pub(crate) fn first_hit<G: RenderBricks>(
     let mut vis = FirstHit {
         occ,
         skip,
-        // The adaptive ray must not jump into flags: a box one voxel
-        // smaller, and only in 26 mode.
+        // In 26 mode the adaptive ray must not jump into flags: a box one
+        // voxel smaller.
         adaptive: kind == RayKind::Adaptive,
         hit: None,
     };
@@ -77,10 +83,10 @@ impl<'g, G: RenderBricks> Visitor for FirstHit<'g, G> {
         v: IVec3,
         in26: bool,
     ) -> Option<(IVec3, IVec3)> {
-        if !self.skip || k == 0 || (self.adaptive && !in26) {
+        if !self.skip || k == 0 {
             return None;
         }
-        let margin = i32::from(self.adaptive);
+        let margin = i32::from(self.adaptive && in26);
         let r = i32::from(k) - 1;
         let lo = (b - r) * 8 + margin;
         let hi = (b + r + 1) * 8 - 1 - margin;
