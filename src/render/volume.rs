@@ -112,7 +112,7 @@ use super::tiles::TileMask;
 use super::walk::{BUF, CastCounters, Run, Visitor, walk_aw, walk_exact};
 use super::{
     GridRay, GridTransform, NormalMode, RayKind, RaySetup, RenderImage, RenderOptions, RenderStats,
-    camera_check, check_image, corrected_opacity,
+    camera_check, check_image,
 };
 
 /// Compositing stops once the accumulated opacity reaches this.
@@ -933,7 +933,8 @@ struct Composite<'a> {
     a: f32,
     hit: Option<IVec3>,
     /// The transfer function's opacities of the run being visited (from
-    /// [`Accum::prepare`]), and with a table their `ln(1 − τ)`.
+    /// [`Accum::prepare`]) and their `ln(1 − τ)` (from the table, or
+    /// computed where the run is not all transparent).
     tau: [f32; BUF],
     ln_tau: [f32; BUF],
 }
@@ -996,6 +997,18 @@ impl Accum for Composite<'_> {
             self.tf.opacity_lanes(s.try_into().unwrap(), t);
             any |= t.iter().fold(false, |a, &x| a | (x > 0.0));
         }
+        if any {
+            // What the table holds per value, here per voxel (only for
+            // runs that are not all transparent).
+            for (l, t) in self.ln_tau[..lanes]
+                .chunks_exact_mut(8)
+                .zip(self.tau[..lanes].chunks_exact(8))
+            {
+                for k in 0..8 {
+                    l[k] = ln_one_minus(t[k]);
+                }
+            }
+        }
         any
     }
 
@@ -1017,26 +1030,14 @@ impl Accum for Composite<'_> {
             *y = (l * self.inv_ref) as f32;
         }
         let mut alpha = [0f32; BUF];
-        if self.table.is_some() {
-            for (((a, t), l), y) in alpha[..lanes]
-                .chunks_exact_mut(8)
-                .zip(tau[..lanes].chunks_exact(8))
-                .zip(self.ln_tau[..lanes].chunks_exact(8))
-                .zip(y[..lanes].chunks_exact(8))
-            {
-                for k in 0..8 {
-                    a[k] = corrected_opacity_from_log(t[k], l[k], y[k]);
-                }
-            }
-        } else {
-            for ((a, t), y) in alpha[..lanes]
-                .chunks_exact_mut(8)
-                .zip(tau[..lanes].chunks_exact(8))
-                .zip(y[..lanes].chunks_exact(8))
-            {
-                for k in 0..8 {
-                    a[k] = corrected_opacity(t[k], y[k]);
-                }
+        for (((a, t), l), y) in alpha[..lanes]
+            .chunks_exact_mut(8)
+            .zip(tau[..lanes].chunks_exact(8))
+            .zip(self.ln_tau[..lanes].chunks_exact(8))
+            .zip(y[..lanes].chunks_exact(8))
+        {
+            for k in 0..8 {
+                a[k] = corrected_opacity_from_log(t[k], l[k], y[k]);
             }
         }
         for i in 0..n {
