@@ -102,39 +102,46 @@ impl Moments {
     /// outside the grid.
     pub fn around(v: IVec3, mask_of: impl Fn(IVec3) -> BrickMask) -> Moments {
         const R: i32 = RADIUS + 1;
-        let b0: IVec3 = (v - R) >> 3;
-        let b1: IVec3 = (v + R) >> 3;
+        const W: usize = 2 * R as usize + 1;
+        // Loops over exclusive index ranges (`a = dz + R` and so on), not
+        // `-R..=R`: inclusive ranges kept an exhaustion flag and bounds
+        // checks in these small loops, most of the call's time.
+        let lo = v - R;
+        // The 9-voxel window spans exactly two bricks along each axis.
+        let b0: IVec3 = lo >> 3;
         let mut masks = [[[[0u64; 8]; 2]; 2]; 2];
-        for (iz, bz) in (b0.z..=b1.z).enumerate() {
-            for (iy, by) in (b0.y..=b1.y).enumerate() {
-                for (ix, bx) in (b0.x..=b1.x).enumerate() {
-                    masks[iz][iy][ix] = mask_of(IVec3::new(bx, by, bz));
+        for (iz, plane) in masks.iter_mut().enumerate() {
+            for (iy, pair) in plane.iter_mut().enumerate() {
+                for (ix, m) in pair.iter_mut().enumerate() {
+                    *m = mask_of(b0 + IVec3::new(ix as i32, iy as i32, iz as i32));
                 }
             }
         }
         // Rows of 9 bits (offsets −4..=4) of the occupancy around v.
-        let shift = (v.x - R) & 7;
-        let mut occ = [[0u32; 9]; 9];
-        for (a, dz) in (-R..=R).enumerate() {
-            let z = v.z + dz;
-            let (iz, lz) = (((z >> 3) - b0.z) as usize, (z & 7) as usize);
-            for (b, dy) in (-R..=R).enumerate() {
-                let y = v.y + dy;
-                let (iy, ly) = (((y >> 3) - b0.y) as usize, 8 * (y & 7) as u32);
+        let shift = (lo.x & 7) as u32;
+        let rows_y: [(usize, u32); W] = std::array::from_fn(|b| {
+            let y = lo.y + b as i32;
+            ((((y >> 3) - b0.y) & 1) as usize, 8 * (y & 7) as u32)
+        });
+        let mut occ = [[0u32; W]; W];
+        for (a, layer) in occ.iter_mut().enumerate() {
+            let z = lo.z + a as i32;
+            let (iz, lz) = ((((z >> 3) - b0.z) & 1) as usize, (z & 7) as usize);
+            for (row_out, &(iy, ly)) in layer.iter_mut().zip(&rows_y) {
                 let pair = &masks[iz][iy];
                 let row = (pair[0][lz] >> ly & 0xff) | (pair[1][lz] >> ly & 0xff) << 8;
-                occ[a][b] = (row >> shift & 0x1ff) as u32;
+                *row_out = (row >> shift & 0x1ff) as u32;
             }
         }
         let tables = &*TABLES;
         let [mut s, mut sx, mut sy, mut sz] = [0.0; 4];
         let [mut sxx, mut syy, mut szz, mut sxy, mut sxz, mut syz] = [0.0; 6];
-        for dz in -RADIUS..=RADIUS {
-            let a = (dz + R) as usize;
+        // Layers dz = a − R and rows dy = b − R for a, b in 1..W − 1, in
+        // the order of dz and dy from −RADIUS to RADIUS.
+        for a in 1..W - 1 {
             // Per layer: Σ over rows of g(dy)·dyᵖ times the row's moments.
             let [mut a0, mut a1, mut a2, mut b0, mut b1, mut c0] = [0.0; 6];
-            for dy in -RADIUS..=RADIUS {
-                let b = (dy + R) as usize;
+            for b in 1..W - 1 {
                 let o = occ[a][b];
                 // Surface voxels: occupied with an empty 6-neighbour.
                 let inner = o
@@ -149,7 +156,7 @@ impl Moments {
                     continue;
                 }
                 let [r0, r1, r2] = tables.rows[bits];
-                let [g, gy, gyy] = tables.axis[(dy + RADIUS) as usize];
+                let [g, gy, gyy] = tables.axis[b - 1];
                 a0 += g * r0;
                 a1 += gy * r0;
                 a2 += gyy * r0;
@@ -157,7 +164,7 @@ impl Moments {
                 b1 += gy * r1;
                 c0 += g * r2;
             }
-            let [g, gz, gzz] = tables.axis[(dz + RADIUS) as usize];
+            let [g, gz, gzz] = tables.axis[a - 1];
             s += g * a0;
             sy += g * a1;
             syy += g * a2;
