@@ -615,23 +615,27 @@ pub fn render_grid_window<G: RenderBricks>(
             let mut c = walk::CastCounters::default();
             let mut hits = 0u64;
             let mut fits = (opts.normals == NormalMode::Smooth).then(|| FitCache::new(w as usize));
-            for i in 0..color.len() {
-                let (x, y) = (i % w as usize, b * NORMAL_BAND + i / w as usize);
-                if !tiles.may_see(x0 + x as u32, y0 + y as u32) {
-                    c.culled += 1;
-                    continue;
-                }
-                let (ray, seg) = setup.pixel(x0 + x as u32, y0 + y as u32);
-                let v = seg.and_then(|s| cast::first_hit(occ, &s, opts.ray, opts.skip, &mut c));
-                if let Some(v) = v {
-                    hits += 1;
-                    let (t, axis) = ray.entry(v);
-                    let fit = fits
-                        .as_mut()
-                        .map(|f| f.moments(x, v, || Moments::around(v, |b| occ.occupancy_mask(b))));
-                    color[i] = shade(occ, &setup, &ray, v, axis, fit.as_ref(), opts);
-                    depth[i] = t as f32;
-                    hit[i] = Some(v);
+            // Rows, then columns (no division per pixel to find them).
+            for (row, start) in (0..color.len()).step_by(w as usize).enumerate() {
+                let y = b * NORMAL_BAND + row;
+                for x in 0..w as usize {
+                    let i = start + x;
+                    if !tiles.may_see(x0 + x as u32, y0 + y as u32) {
+                        c.culled += 1;
+                        continue;
+                    }
+                    let (ray, seg) = setup.pixel(x0 + x as u32, y0 + y as u32);
+                    let v = seg.and_then(|s| cast::first_hit(occ, &s, opts.ray, opts.skip, &mut c));
+                    if let Some(v) = v {
+                        hits += 1;
+                        let (t, axis) = ray.entry(v);
+                        let fit = fits.as_mut().map(|f| {
+                            f.moments(x, v, || Moments::around(v, |b| occ.occupancy_mask(b)))
+                        });
+                        color[i] = shade(occ, &setup, &ray, v, axis, fit.as_ref(), opts);
+                        depth[i] = t as f32;
+                        hit[i] = Some(v);
+                    }
                 }
             }
             (c, hits)
