@@ -664,13 +664,16 @@ fn read_typed<T: Sample>(
 
 /// An empty vector with room for `n` samples; an allocation the system
 /// refuses is a [`VoxkitError::Limits`], not an abort.
-fn reserve<T>(n: usize, limit: MemoryLimit) -> Result<Vec<T>> {
+fn reserve<T: Sample>(n: usize, limit: MemoryLimit) -> Result<Vec<T>> {
     let mut v = Vec::new();
     v.try_reserve_exact(n).map_err(|_| VoxkitError::Limits {
         what: format!("{n} volume samples (the system refused the allocation)"),
         needed: n as u128 * std::mem::size_of::<T>() as u128,
         limit: limit.bytes,
     })?;
+    // The samples are decoded by one thread; their pages are mapped in by
+    // all of them first.
+    crate::alloc::prefault_spare(&mut v);
     Ok(v)
 }
 

@@ -665,6 +665,7 @@ fn narrowed(
     let mut out: Vec<f32> = Vec::new();
     out.try_reserve_exact(total)
         .map_err(|_| too_big(total * 4, limit))?;
+    crate::alloc::prefault_spare(&mut out);
     out.resize(total, 0.0);
     let conv = |x: f64| denan(x as f32);
     let mut slab: Vec<f32> = Vec::new();

@@ -245,15 +245,19 @@ impl RenderImage {
         // Filled rather than asked zeroed: a zeroed request of this size
         // gets lazily mapped 4 KiB pages (crate::alloc), whose first
         // touches in the render cost more than writing the zeros into
-        // huge pages here.
-        let mut color = Vec::with_capacity(n);
-        color.resize(n, [0.0; 4]);
+        // huge pages here, after all threads have mapped them in.
+        fn filled<T: Clone + Default + Send>(n: usize, value: T) -> Vec<T> {
+            let mut v = Vec::with_capacity(n);
+            crate::alloc::prefault_spare(&mut v);
+            v.resize(n, value);
+            v
+        }
         RenderImage {
             width,
             height,
-            color,
-            depth: vec![depth; n],
-            hit: vec![None; n],
+            color: filled(n, [0.0; 4]),
+            depth: filled(n, depth),
+            hit: filled(n, None),
         }
     }
 
