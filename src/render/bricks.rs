@@ -557,6 +557,7 @@ fn in_place<T: Stored>(
     let mut next: Vec<T> = Vec::new();
     let tables = count.then(|| ThreadTables::new(1 << digit_bits::<T>(0)));
     const CHUNK: usize = 1 << 16;
+    let mut layers = LayerRanges::new(dims);
     for k in (0..bd[2]).rev() {
         let z0 = k * BRICK as usize;
         let z1 = (z0 + BRICK as usize).min(nz);
@@ -592,7 +593,7 @@ fn in_place<T: Stored>(
                 &buf[(z * ny + y) * nx..][..nx]
             };
             let rlayer = &mut ranges[k * bd[0] * bd[1]..(k + 1) * bd[0] * bd[1]];
-            layer_ranges(rlayer, k, dims, bd, &row, &fix);
+            layers.layer(rlayer, k, &row, &fix);
         }
         let out = &mut v[k * layer..(k + 1) * layer];
         let cur_ref = &cur;
@@ -669,6 +670,7 @@ fn narrowed(
     out.resize(total, 0.0);
     let conv = |x: f64| denan(x as f32);
     let mut slab: Vec<f32> = Vec::new();
+    let mut layers = LayerRanges::new(dims);
     for k in 0..bd[2] {
         let z0 = k * BRICK as usize;
         let lo = z0.saturating_sub(2);
@@ -678,7 +680,7 @@ fn narrowed(
         let slab_rows = &slab;
         let row = |z: usize, y: usize| &slab_rows[((z - lo) * ny + y) * nx..][..nx];
         let rlayer = &mut ranges[k * bd[0] * bd[1]..(k + 1) * bd[0] * bd[1]];
-        layer_ranges(rlayer, k, dims, bd, &row, &|x| x);
+        layers.layer(rlayer, k, &row, &|x| x);
         let z1 = (z0 + BRICK as usize).min(nz);
         let slab_ref = &slab;
         out[k * layer..(k + 1) * layer]
@@ -723,79 +725,182 @@ fn fill_brick<'a, T: Copy + Default + 'a>(
     }
 }
 
-/// The ranges of layer `k`'s bricks (`out`, x fastest) from the dense rows
-/// `row(z, y)` of slices `8k − 2 ..= 8k + 9` (clipped to the volume), each
-/// read through `fix`. Separable, one row of bricks at a time (in
-/// parallel): a row pass finds, for each row of the bricks' grown box and
-/// each brick column, the ranges over the row's x-extents
-/// `[8bx − r, 8bx + 7 + r]` (a row's samples converted once per brick row
-/// that reads it: the two apron rows on each side are also read by the
-/// neighbouring brick row); a brick pass combines the rows of each brick's
-/// box grown by `r`. The row results of one brick row (12 × 12 rows × the
-/// brick columns) stay in the cache.
-fn layer_ranges<'a, T: Stored + 'a>(
-    out: &mut [BrickRange],
-    k: usize,
-    [nx, ny, nz]: [usize; 3],
+/// The brick ranges of one layer of bricks at a time, from per-slice
+/// ranges computed once per slice.
+///
+/// Separable: a row pass ([`row_pass`]) finds, for each dense row and brick
+/// column, the ranges over the row's x-extents `[8bx − r, 8bx + 7 + r]`; a
+/// slice's rows fold into per-brick *slice ranges* (over the rows within
+/// `r` of the brick's rows, [`slice_ranges`]); a layer's bricks fold the
+/// slice ranges of the slices within `r` of theirs. A slice within 2 of a
+/// layer boundary is read by two layers: its slice ranges are kept for the
+/// second. Every row of ranges is level-major ([`Lanes`]), so the folds are
+/// element-wise over brick columns and vectorise.
+struct LayerRanges {
+    /// Slice ranges by slice (per brick row, a row of [`Lanes`]), kept for
+    /// the slices of the last layer's window.
+    slices: Vec<Option<Vec<f32>>>,
+    dims: [usize; 3],
     bd: [usize; 3],
-    row: &(impl Fn(usize, usize) -> &'a [T] + Sync),
-    fix: &(impl Fn(T) -> T + Sync),
-) {
-    let b = BRICK as usize;
-    let (z0, z1) = (k * b, (k * b + b - 1).min(nz - 1));
-    let z_lo = z0.saturating_sub(2);
-    let z_hi = (z1 + 2).min(nz - 1);
-    out.par_chunks_mut(bd[0]).enumerate().for_each_init(
-        || (Vec::new(), Vec::with_capacity(nx)),
-        |(rows, buf), (by, brow)| {
-            let (y0, y1) = (by * b, (by * b + b - 1).min(ny - 1));
-            let (y_lo, y_hi) = (y0.saturating_sub(2), (y1 + 2).min(ny - 1));
-            let at = |z: usize, y: usize| ((z - z_lo) * (y_hi - y_lo + 1) + (y - y_lo)) * bd[0];
-            rows.clear();
-            rows.resize(at(z_hi, y_hi) + bd[0], BrickRange::EMPTY);
-            for z in z_lo..=z_hi {
-                for y in y_lo..=y_hi {
-                    row_pass(row(z, y), nx, &mut rows[at(z, y)..][..bd[0]], fix, buf);
-                }
+}
+
+/// Ranges of a row of `n` bricks at the three levels, level-major: `6n`
+/// floats, the minima of level `r` at `2rn..(2r + 1)n`, its maxima after.
+type Lanes = [f32];
+
+/// A row of `n` empty ranges.
+fn empty_lanes(n: usize, out: &mut Vec<f32>) {
+    out.clear();
+    for _ in 0..3 {
+        out.extend(std::iter::repeat_n(f32::INFINITY, n));
+        out.extend(std::iter::repeat_n(f32::NEG_INFINITY, n));
+    }
+}
+
+/// Folds the row of ranges `from` into `into` (both of `n` bricks) at
+/// levels `ring..3`. Plain comparisons: no NaN reaches the ranges (see
+/// [`row_pass`]), and `f32::min`'s NaN handling costs a blend per value.
+#[inline]
+fn fold_lanes(into: &mut Lanes, from: &Lanes, n: usize, ring: usize) {
+    let (into, from) = (&mut into[2 * ring * n..6 * n], &from[2 * ring * n..6 * n]);
+    for (k, (i, f)) in into
+        .chunks_exact_mut(n)
+        .zip(from.chunks_exact(n))
+        .enumerate()
+    {
+        if k % 2 == 0 {
+            i.iter_mut()
+                .zip(f)
+                .for_each(|(i, &f)| *i = if f < *i { f } else { *i });
+        } else {
+            i.iter_mut()
+                .zip(f)
+                .for_each(|(i, &f)| *i = if f > *i { f } else { *i });
+        }
+    }
+}
+
+impl LayerRanges {
+    fn new(dims: [usize; 3]) -> Self {
+        LayerRanges {
+            slices: (0..dims[2]).map(|_| None).collect(),
+            dims,
+            bd: dims.map(|d| d.div_ceil(BRICK as usize)),
+        }
+    }
+
+    /// The ranges of layer `k`'s bricks into `out` (x fastest), reading the
+    /// dense rows `row(z, y)` through `fix`: only those of slices
+    /// `8k − 2 ..= 8k + 9` (clipped to the volume) whose slice ranges are
+    /// not kept from the layer before. Any order of the layers gives the
+    /// same ranges; in order (up or down) each slice is passed once.
+    fn layer<'a, T: Stored + 'a>(
+        &mut self,
+        out: &mut [BrickRange],
+        k: usize,
+        row: &(impl Fn(usize, usize) -> &'a [T] + Sync),
+        fix: &(impl Fn(T) -> T + Sync),
+    ) {
+        let b = BRICK as usize;
+        let [nx, ny, nz] = self.dims;
+        let n = self.bd[0];
+        let (z0, z1) = (k * b, (k * b + b - 1).min(nz - 1));
+        let (lo, hi) = (z0.saturating_sub(2), (z1 + 2).min(nz - 1));
+        // Layers come in order (either way): a slice outside this layer's
+        // window is not read again.
+        for (z, s) in self.slices.iter_mut().enumerate() {
+            if s.is_some() && !(lo..=hi).contains(&z) {
+                *s = None;
             }
-            for z in z_lo..=z_hi {
-                let rz = z0.saturating_sub(z).max(z.saturating_sub(z1));
-                for y in y_lo..=y_hi {
-                    let ring = y0.saturating_sub(y).max(y.saturating_sub(y1)).max(rz);
-                    for (r, e) in brow.iter_mut().zip(&rows[at(z, y)..][..bd[0]]) {
-                        // Plain comparisons: no NaN reaches the ranges (see
-                        // `row_pass`), and `f32::min`'s NaN handling costs
-                        // a blend per value.
-                        for q in ring..3 {
-                            if e.min[q] < r.min[q] {
-                                r.min[q] = e.min[q];
-                            }
-                            if e.max[q] > r.max[q] {
-                                r.max[q] = e.max[q];
-                            }
-                        }
+        }
+        let missing: Vec<usize> = (lo..=hi).filter(|&z| self.slices[z].is_none()).collect();
+        let bd = self.bd;
+        let computed: Vec<(usize, Vec<f32>)> = missing
+            .par_iter()
+            .map_init(
+                || (Vec::with_capacity(nx), Vec::new()),
+                |(buf, line), &z| {
+                    let r = slice_ranges(|y| row(z, y), [nx, ny], bd, fix, buf, line);
+                    (z, r)
+                },
+            )
+            .collect();
+        for (z, r) in computed {
+            self.slices[z] = Some(r);
+        }
+        let slices = &self.slices;
+        out.par_chunks_mut(n)
+            .enumerate()
+            .for_each_init(Vec::new, |acc, (by, brow)| {
+                empty_lanes(n, acc);
+                for z in lo..=hi {
+                    let rz = z0.saturating_sub(z).max(z.saturating_sub(z1));
+                    let s = slices[z].as_deref().expect("computed above");
+                    fold_lanes(acc, &s[by * 6 * n..][..6 * n], n, rz);
+                }
+                for (bx, o) in brow.iter_mut().enumerate() {
+                    for r in 0..3 {
+                        o.min[r] = acc[2 * r * n + bx];
+                        o.max[r] = acc[(2 * r + 1) * n + bx];
                     }
                 }
+            });
+    }
+}
+
+/// The slice ranges of one slice (dense rows `row(y)`, read through `fix`):
+/// per brick `(bx, by)` of a layer and level `r`, the range over the rows
+/// within `r` of brick row `by`'s (clipped), each over its x-extent grown
+/// by `r`; brick row by brick row, each a row of [`Lanes`]. `buf` and
+/// `line` are scratch.
+fn slice_ranges<'a, T: Stored + 'a>(
+    row: impl Fn(usize) -> &'a [T],
+    [nx, ny]: [usize; 2],
+    bd: [usize; 3],
+    fix: &impl Fn(T) -> T,
+    buf: &mut Vec<f32>,
+    line: &mut Vec<f32>,
+) -> Vec<f32> {
+    let b = BRICK as usize;
+    let n = bd[0];
+    let mut out = Vec::with_capacity(6 * n * bd[1]);
+    let mut empty = Vec::new();
+    empty_lanes(n, &mut empty);
+    for _ in 0..bd[1] {
+        out.extend_from_slice(&empty);
+    }
+    line.clear();
+    line.resize(6 * n, 0.0);
+    for y in 0..ny {
+        row_pass(row(y), nx, line, fix, buf);
+        // The brick rows whose rows grown by 2 hold row `y`.
+        for by in (y / b).saturating_sub(1)..=(y / b + 1).min(bd[1] - 1) {
+            let (y0, y1) = (by * b, (by * b + b - 1).min(ny - 1));
+            let ring = y0.saturating_sub(y).max(y.saturating_sub(y1));
+            if ring < 3 {
+                fold_lanes(&mut out[by * 6 * n..][..6 * n], line, n, ring);
             }
-        },
-    );
+        }
+    }
+    out
 }
 
 /// Per brick column `bx` of one dense row (`nx` samples, read through
 /// `fix` into `buf`): the min and max over `[8bx − r, 8bx + 7 + r]`
-/// (clipped), `r = 0, 1, 2`.
+/// (clipped), `r = 0, 1, 2`, into the row of [`Lanes`] `out`.
 #[inline]
 fn row_pass<T: Stored>(
     row: &[T],
     nx: usize,
-    out: &mut [BrickRange],
+    out: &mut Lanes,
     fix: &impl Fn(T) -> T,
     buf: &mut Vec<f32>,
 ) {
     buf.clear();
     buf.extend(row[..nx].iter().map(|&s| fix(s).value()));
     let b = BRICK as usize;
-    for (bx, (o, chunk)) in out.iter_mut().zip(buf.chunks(b)).enumerate() {
+    let n = out.len() / 6;
+    for (bx, chunk) in buf.chunks(b).enumerate() {
         // No NaN reaches here (`fix` and the narrowing map it to −∞), so
         // plain comparisons are `f32::min`/`max`; whole chunks have a fixed
         // length, and their reductions vectorize.
@@ -809,8 +914,8 @@ fn row_pass<T: Stored>(
             Ok(c) => fold(c),
             Err(_) => fold(chunk),
         };
-        o.min[0] = mn;
-        o.max[0] = mx;
+        out[bx] = mn;
+        out[n + bx] = mx;
         let (lo, hi) = (bx * b, bx * b + chunk.len() - 1);
         for r in 1..3 {
             for x in [lo.wrapping_sub(r), hi + r] {
@@ -823,8 +928,8 @@ fn row_pass<T: Stored>(
                     }
                 }
             }
-            o.min[r] = mn;
-            o.max[r] = mx;
+            out[2 * r * n + bx] = mn;
+            out[(2 * r + 1) * n + bx] = mx;
         }
     }
 }
@@ -1042,28 +1147,43 @@ mod tests {
     }
 
     /// Brick ranges equal brute force over the grown boxes, at odd sizes
-    /// and with −∞ (NaN) samples.
+    /// and with −∞ (NaN) samples, built in place (float32, int16) and
+    /// narrowed (float64, whose layers come in the other order).
     #[test]
     fn brick_ranges_match_brute_force() {
-        for dims in [
+        let shapes = [
             [19usize, 9, 17],
             [8, 8, 8],
             [5, 30, 26],
             [2, 3, 10],
             [1, 1, 20],
             [9, 1, 1],
-        ] {
+            [12, 20, 41],
+        ];
+        for (dims, ty) in shapes.into_iter().flat_map(|d| [(d, 0), (d, 1), (d, 2)]) {
             let n = dims.iter().product::<usize>();
-            let data: Vec<f32> = (0..n)
-                .map(|i| {
-                    if i % 211 == 5 {
-                        f32::NAN
-                    } else {
-                        ((i * 7919 + 13) % 1009) as f32 - 500.0
-                    }
-                })
-                .collect();
-            let s = bricks(dims, VolumeData::F32(data));
+            let value = |i: usize| ((i * 7919 + 13) % 1009) as f32 - 500.0;
+            let nan = |i: usize| i % 211 == 5;
+            let data = match ty {
+                0 => VolumeData::F32(
+                    (0..n)
+                        .map(|i| if nan(i) { f32::NAN } else { value(i) })
+                        .collect(),
+                ),
+                1 => VolumeData::F64(
+                    (0..n)
+                        .map(|i| {
+                            if nan(i) {
+                                f64::NAN
+                            } else {
+                                f64::from(value(i))
+                            }
+                        })
+                        .collect(),
+                ),
+                _ => VolumeData::I16((0..n).map(|i| value(i) as i16).collect()),
+            };
+            let s = bricks(dims, data);
             let bd = s.brick_dims();
             for bz in 0..bd[2] {
                 for by in 0..bd[1] {
@@ -1087,7 +1207,7 @@ mod tests {
                             assert_eq!(
                                 (got.min[r as usize], got.max[r as usize]),
                                 (mn, mx),
-                                "{dims:?} brick {b} r {r}"
+                                "{dims:?} type {ty} brick {b} r {r}"
                             );
                         }
                     }
