@@ -833,9 +833,9 @@ impl LayerRanges {
             .enumerate()
             .for_each_init(Vec::new, |acc, (by, brow)| {
                 empty_lanes(n, acc);
-                for z in lo..=hi {
+                for (z, s) in slices.iter().enumerate().take(hi + 1).skip(lo) {
                     let rz = z0.saturating_sub(z).max(z.saturating_sub(z1));
-                    let s = slices[z].as_deref().expect("computed above");
+                    let s = s.as_deref().expect("computed above");
                     fold_lanes(acc, &s[by * 6 * n..][..6 * n], n, rz);
                 }
                 for (bx, o) in brow.iter_mut().enumerate() {
