@@ -1217,6 +1217,15 @@ impl<A: Accum, const TRI: bool> Visitor for VolumeVisit<'_, '_, A, TRI> {
         self.ctx.opts.skip
     }
 
+    /// Nearest samples without stretches (MIP, iso) are taken voxel by
+    /// voxel: a run would store each voxel and read it back for nothing.
+    const PER_VOXEL: bool = !TRI && !A::LEN;
+
+    #[inline(always)]
+    fn voxel(&mut self, _: Self::Brick, v: IVec3, i: usize) -> bool {
+        self.acc.visit(v, self.ctx.scene.bricks.value_at(i), 0.0)
+    }
+
     #[inline(always)]
     fn run(&mut self, _: Self::Brick, run: &Run) -> Option<usize> {
         let column = self.column.as_mut().map(|(major, prev)| (*major, prev));
