@@ -40,7 +40,10 @@ use glam::IVec3;
 use rayon::prelude::*;
 
 use crate::error::{Result, VoxkitError};
-use crate::grid::volume::{Sample, count_digit, digit_bits, percentiles_by, percentiles_of};
+use crate::grid::volume::{
+    FIRST_DIGIT_WAYS, Sample, count_digit, count_first_digit, digit_bits, percentiles_by,
+    percentiles_of, sum_ways,
+};
 use crate::grid::{MemoryLimit, ScalarType, ScalarVolume, VolumeData};
 
 /// Brick edge in voxels.
@@ -555,7 +558,8 @@ fn in_place<T: Stored>(
     // 512³ float32 render command).
     let mut cur: Vec<T> = Vec::new();
     let mut next: Vec<T> = Vec::new();
-    let tables = count.then(|| ThreadTables::new(1 << digit_bits::<T>(0)));
+    let width = 1 << digit_bits::<T>(0);
+    let tables = count.then(|| ThreadTables::new(FIRST_DIGIT_WAYS * width));
     const CHUNK: usize = 1 << 16;
     let mut layers = LayerRanges::new(dims);
     for k in (0..bd[2]).rev() {
@@ -573,7 +577,7 @@ fn in_place<T: Stored>(
             .for_each(|(c, src)| {
                 c.iter_mut().zip(src).for_each(|(x, &s)| *x = fix(s));
                 if let Some(t) = &tables {
-                    t.with(|t| count_digit(c, 0, &[0], t));
+                    t.with(|t| count_first_digit(c, t));
                 }
             });
         {
@@ -607,7 +611,7 @@ fn in_place<T: Stored>(
             });
         std::mem::swap(&mut cur, &mut next);
     }
-    *first = tables.map(ThreadTables::total);
+    *first = tables.map(|t| sum_ways(t.total(), width));
     Ok(v)
 }
 
