@@ -52,6 +52,7 @@ use std::path::{Path, PathBuf};
 
 use flate2::read::{MultiGzDecoder, ZlibDecoder};
 use glam::{DMat3, DVec3};
+use rayon::prelude::*;
 
 use crate::error::{Result, VoxkitError};
 use crate::grid::volume::Sample;
@@ -197,7 +198,67 @@ impl<T: Read + Seek> ReadSeek for T {}
 /// An open file of [`Files`] and its length.
 type Opened<'a> = (Box<dyn ReadSeek + 'a>, u64);
 
+/// A file content read at byte offsets from several threads at once.
+enum Positioned<'a> {
+    Disk(File),
+    Memory(&'a [u8]),
+}
+
+impl Positioned<'_> {
+    /// The `len` bytes at `at`, read into `buf` where they are not in
+    /// memory already; an `UnexpectedEof` error where the content is
+    /// shorter.
+    fn read_at<'b>(&'b self, at: u64, len: usize, buf: &'b mut Vec<u8>) -> io::Result<&'b [u8]> {
+        let eof = || io::Error::from(io::ErrorKind::UnexpectedEof);
+        match self {
+            Positioned::Disk(file) => {
+                buf.resize(len, 0);
+                #[cfg(unix)]
+                std::os::unix::fs::FileExt::read_exact_at(file, buf, at)?;
+                #[cfg(windows)]
+                {
+                    let mut done = 0;
+                    while done < len {
+                        let n = std::os::windows::fs::FileExt::seek_read(
+                            file,
+                            &mut buf[done..],
+                            at + done as u64,
+                        )?;
+                        if n == 0 {
+                            return Err(eof());
+                        }
+                        done += n;
+                    }
+                }
+                Ok(&buf[..])
+            }
+            Positioned::Memory(bytes) => {
+                let at = usize::try_from(at).map_err(|_| eof())?;
+                bytes
+                    .get(at..at.checked_add(len).ok_or_else(eof)?)
+                    .ok_or_else(eof)
+            }
+        }
+    }
+}
+
 impl Files<'_> {
+    /// `path`'s content for reads at offsets ([`Positioned`]).
+    fn positioned(&self, path: &Path) -> Result<Positioned<'_>> {
+        match self {
+            Files::Disk => Ok(Positioned::Disk(File::open(path).map_err(io_at(path))?)),
+            Files::Memory {
+                header_path,
+                header,
+                data,
+            } => Ok(Positioned::Memory(if path == *header_path {
+                header
+            } else {
+                data
+            })),
+        }
+    }
+
     fn open(&self, path: &Path) -> Result<Opened<'_>> {
         match self {
             Files::Disk => {
@@ -664,16 +725,13 @@ fn read_typed<T: Sample>(
 
 /// An empty vector with room for `n` samples; an allocation the system
 /// refuses is a [`VoxkitError::Limits`], not an abort.
-fn reserve<T: Sample>(n: usize, limit: MemoryLimit) -> Result<Vec<T>> {
+fn reserve<T>(n: usize, limit: MemoryLimit) -> Result<Vec<T>> {
     let mut v = Vec::new();
     v.try_reserve_exact(n).map_err(|_| VoxkitError::Limits {
         what: format!("{n} volume samples (the system refused the allocation)"),
         needed: n as u128 * std::mem::size_of::<T>() as u128,
         limit: limit.bytes,
     })?;
-    // The samples are decoded by one thread; their pages are mapped in by
-    // all of them first.
-    crate::alloc::prefault_spare(&mut v);
     Ok(v)
 }
 
@@ -699,11 +757,16 @@ fn read_piece<T: Sample>(
             ))
         })?;
     let pos = p.start + skipped;
+    if s.encoding != Encoding::Raw {
+        // One thread decodes these; the pages they fill are mapped in by
+        // all threads first (raw pieces are read in parallel).
+        crate::alloc::prefault_spare(out);
+    }
     let need = (count as u64)
         .checked_mul(std::mem::size_of::<T>() as u64)
         .ok_or_else(|| invalid("data size overflows"))?;
     match s.encoding {
-        Encoding::Raw => read_raw(path, r, pos, len, need, s, count, out),
+        Encoding::Raw => read_raw(files, path, pos, len, need, s, count, out),
         Encoding::Gzip | Encoding::Bzip2 | Encoding::Zlib => {
             read_compressed(path, r, pos, len, need, s, count, out)
         }
@@ -718,8 +781,8 @@ fn read_piece<T: Sample>(
 
 #[allow(clippy::too_many_arguments)]
 fn read_raw<T: Sample>(
+    files: &Files,
     path: &Path,
-    mut r: BufReader<Box<dyn ReadSeek + '_>>,
     pos: u64,
     len: u64,
     need: u64,
@@ -741,13 +804,52 @@ fn read_raw<T: Sample>(
     if have != need {
         return Err(size_error(path, "raw data", have, need, s.ty));
     }
-    r.seek(SeekFrom::Start(start)).map_err(io_at(path))?;
+    let source = files.positioned(path)?;
+    decode_raw_at(&source, start, count, s.big_endian, out).map_err(|e| {
+        if e.kind() == io::ErrorKind::UnexpectedEof {
+            // The file shrank while we read it.
+            invalid(format!("{}: data ended early", path.display()))
+        } else {
+            io_at(path)(e)
+        }
+    })
+}
+
+/// Bytes of a raw piece each task of [`decode_raw_at`] reads and decodes.
+const RAW_TASK_BYTES: usize = 1 << 20;
+
+/// Appends the `count` samples stored raw at byte `start` of `source` to
+/// `out`, read and decoded in parallel, piece by piece (one thread read and
+/// decoded 512 MiB of float32 in ~165 ms, a seventh of a whole `voxkit
+/// render` of it).
+fn decode_raw_at<T: Sample>(
+    source: &Positioned,
+    start: u64,
+    count: usize,
+    big_endian: bool,
+    out: &mut Vec<T>,
+) -> io::Result<()> {
+    let size = std::mem::size_of::<T>();
+    let per = (RAW_TASK_BYTES / size).max(1);
+    out.try_reserve_exact(count)
+        .map_err(|_| io::Error::new(io::ErrorKind::OutOfMemory, "sample buffer"))?;
     let before = out.len();
-    decode_raw(&mut r, count, s.big_endian, out).map_err(io_at(path))?;
-    if out.len() - before != count {
-        // The file shrank while we read it.
-        return Err(invalid(format!("{}: data ended early", path.display())));
-    }
+    out.spare_capacity_mut()[..count]
+        .par_chunks_mut(per)
+        .enumerate()
+        .try_for_each_init(Vec::new, |bytes, (k, chunk)| {
+            let at = start + (k * per * size) as u64;
+            let data = source.read_at(at, chunk.len() * size, bytes)?;
+            for (o, b) in chunk.iter_mut().zip(data.chunks_exact(size)) {
+                o.write(T::from_bytes(b, big_endian));
+            }
+            Ok::<_, io::Error>(())
+        })?;
+    // SAFETY: the `count` slots after the first `before` are the chunks
+    // just filled: `try_for_each_init` returned `Ok`, so every chunk was
+    // read in full (`read_at` fails short of its length) and each of its
+    // slots written once; the capacity was reserved above.
+    unsafe { out.set_len(before + count) };
     Ok(())
 }
 
@@ -1639,6 +1741,7 @@ fn read_npy_data<T: Sample>(
     let io_err = |e| stream_error(path, "npy data", e);
     let short = || invalid(format!("{}: npy data ended early", path.display()));
     let mut out = reserve::<T>(n, limit)?;
+    crate::alloc::prefault_spare(&mut out);
     if h.fortran {
         decode_raw(r, n, h.big_endian, &mut out).map_err(io_err)?;
         return if out.len() == n {
@@ -1951,6 +2054,73 @@ mod tests {
         ] {
             assert!(parse_npy_header(bad).is_err(), "{bad}");
         }
+    }
+
+    /// Raw data read in parallel pieces (from disk and from memory) reads
+    /// back every sample exactly: volumes of several pieces and a partial
+    /// one, both byte orders, a byte skip, one- to eight-byte types.
+    #[test]
+    fn raw_data_in_many_pieces_reads_back_exactly() {
+        let dir = std::env::temp_dir().join(format!("voxkit-raw-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let dims = [131usize, 67, 197];
+        let n: usize = dims.iter().product();
+        let value = |i: usize| ((i * 2_654_435_761) % 65_521) as f64 - 30_000.0;
+        let cases: [(&str, usize, bool); 4] = [
+            ("short", 2, true),
+            ("double", 8, false),
+            ("uchar", 1, false),
+            ("float", 4, true),
+        ];
+        for (ty, size, big) in cases {
+            let mut bytes = vec![0xa5u8; 3];
+            for i in 0..n {
+                let v = value(i);
+                let b: Vec<u8> = match (ty, big) {
+                    ("short", true) => (v as i16).to_be_bytes().to_vec(),
+                    ("double", _) => v.to_le_bytes().to_vec(),
+                    ("uchar", _) => vec![(v as i64).rem_euclid(256) as u8],
+                    ("float", true) => (v as f32 * 0.25).to_be_bytes().to_vec(),
+                    _ => unreachable!(),
+                };
+                assert_eq!(b.len(), size);
+                bytes.extend(b);
+            }
+            assert!(bytes.len() > RAW_TASK_BYTES + 3, "{ty}: one piece only");
+            let want = |i: usize| match ty {
+                "short" => f64::from(value(i) as i16),
+                "double" => value(i),
+                "uchar" => (value(i) as i64).rem_euclid(256) as f64,
+                _ => f64::from(value(i) as f32 * 0.25),
+            };
+            let header = format!(
+                "NRRD0004\ntype: {ty}\ndimension: 3\nsizes: {} {} {}\nencoding: raw\nendian: {}\nbyte skip: 3\ndata file: {ty}.raw\n",
+                dims[0],
+                dims[1],
+                dims[2],
+                if big { "big" } else { "little" }
+            );
+            let nhdr = dir.join(format!("{ty}.nhdr"));
+            std::fs::write(&nhdr, &header).unwrap();
+            std::fs::write(dir.join(format!("{ty}.raw")), &bytes).unwrap();
+            let disk = read_volume(&nhdr, MemoryLimit::DEFAULT).unwrap();
+            let memory =
+                read_volume_bytes(&nhdr, header.as_bytes(), &bytes, MemoryLimit::DEFAULT).unwrap();
+            for v in [disk, memory] {
+                for (i, (z, y, x)) in (0..dims[2])
+                    .flat_map(|z| {
+                        (0..dims[1]).flat_map(move |y| (0..dims[0]).map(move |x| (z, y, x)))
+                    })
+                    .enumerate()
+                {
+                    assert_eq!(v.get(x, y, z), want(i), "{ty} sample {i}");
+                }
+            }
+            // A data file one byte short is an error, not a short volume.
+            std::fs::write(dir.join(format!("{ty}.raw")), &bytes[..bytes.len() - 1]).unwrap();
+            assert!(read_volume(&nhdr, MemoryLimit::DEFAULT).is_err());
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
