@@ -587,8 +587,13 @@ fn finite_range<T: Sample>(v: &[T]) -> Option<(f64, f64)> {
 
 /// The percentiles `ps` of the samples `v` (see [`ScalarVolume::percentiles`]).
 pub(crate) fn percentiles_of<T: Sample>(v: &[T], ps: &[f64]) -> Vec<f64> {
-    percentiles_by::<T>(ps, digit_counts(v, 0, &[0]), |known, prefixes| {
-        digit_counts(v, known, prefixes)
+    let width = 1usize << digit_bits::<T>(0);
+    let first = par_counts(v, FIRST_DIGIT_WAYS * width, count_first_digit);
+    percentiles_by::<T>(ps, sum_ways(first, width), |known, prefixes| {
+        let width = 1usize << digit_bits::<T>(known);
+        par_counts(v, width * prefixes.len(), |chunk, counts| {
+            count_digit(chunk, known, prefixes, counts)
+        })
     })
 }
 
@@ -648,15 +653,13 @@ pub(crate) fn digit_bits<T: Sample>(known: u32) -> u32 {
     (T::KEY_BITS - known).min(16)
 }
 
-/// Counts of the next digit (after `known` fixed bits) of the finite
-/// samples' keys, one table of `2^digit_bits` per prefix in `prefixes`
-/// (concatenated), in one parallel pass.
-fn digit_counts<T: Sample>(v: &[T], known: u32, prefixes: &[u64]) -> Vec<u64> {
-    let width = 1usize << digit_bits::<T>(known);
-    let table = || vec![0u64; width * prefixes.len()];
+/// Tables of `len` counts that `count` fills from chunks of `v`, in one
+/// parallel pass, summed.
+fn par_counts<T: Sample>(v: &[T], len: usize, count: impl Fn(&[T], &mut [u64]) + Sync) -> Vec<u64> {
+    let table = || vec![0u64; len];
     v.par_chunks(1 << 16)
         .fold(table, |mut counts, chunk| {
-            count_digit(chunk, known, prefixes, &mut counts);
+            count(chunk, &mut counts);
             counts
         })
         .reduce(table, |mut a, b| {
@@ -665,7 +668,7 @@ fn digit_counts<T: Sample>(v: &[T], known: u32, prefixes: &[u64]) -> Vec<u64> {
         })
 }
 
-/// Adds the next digit (after `known` fixed bits) of the keys of the
+/// Adds the next digit (after `known > 0` fixed bits) of the keys of the
 /// finite samples in `samples` that start with one of `prefixes` to
 /// `counts` (a table of `2^digit_bits` per prefix, concatenated).
 #[inline]
@@ -675,18 +678,13 @@ pub(crate) fn count_digit<T: Sample>(
     prefixes: &[u64],
     counts: &mut [u64],
 ) {
+    // The first digit has its own counter (`count_first_digit`): with
+    // nothing fixed there is no prefix to shift out.
+    debug_assert!(known > 0);
     let bits = digit_bits::<T>(known);
     let shift = T::KEY_BITS - known - bits;
     let width = 1usize << bits;
     let mask = (width - 1) as u64;
-    if known == 0 {
-        // Nothing fixed yet: every finite sample counts, in the one table.
-        let counts = &mut counts[..width];
-        for k in samples.iter().filter_map(|s| s.key()) {
-            counts[((k >> shift) & mask) as usize] += 1;
-        }
-        return;
-    }
     for k in samples.iter().filter_map(|s| s.key()) {
         let p = k >> (shift + bits);
         if let Some(j) = prefixes.iter().position(|&q| q == p) {

@@ -243,38 +243,34 @@ impl Positioned<'_> {
 }
 
 impl Files<'_> {
-    /// `path`'s content for reads at offsets ([`Positioned`]).
-    fn positioned(&self, path: &Path) -> Result<Positioned<'_>> {
+    /// `path`'s content where the files are in memory: the header, or the
+    /// one data content for every other name.
+    fn in_memory(&self, path: &Path) -> Option<&[u8]> {
         match self {
-            Files::Disk => Ok(Positioned::Disk(File::open(path).map_err(io_at(path))?)),
+            Files::Disk => None,
             Files::Memory {
                 header_path,
                 header,
                 data,
-            } => Ok(Positioned::Memory(if path == *header_path {
-                header
-            } else {
-                data
-            })),
+            } => Some(if path == *header_path { header } else { data }),
         }
     }
 
+    /// `path`'s content for reads at offsets ([`Positioned`]).
+    fn positioned(&self, path: &Path) -> Result<Positioned<'_>> {
+        Ok(match self.in_memory(path) {
+            Some(bytes) => Positioned::Memory(bytes),
+            None => Positioned::Disk(File::open(path).map_err(io_at(path))?),
+        })
+    }
+
     fn open(&self, path: &Path) -> Result<Opened<'_>> {
-        match self {
-            Files::Disk => {
-                let file = File::open(path).map_err(io_at(path))?;
-                let len = file.metadata().map_err(io_at(path))?.len();
-                Ok((Box::new(file), len))
-            }
-            Files::Memory {
-                header_path,
-                header,
-                data,
-            } => {
-                let bytes: &[u8] = if path == *header_path { header } else { data };
-                Ok((Box::new(io::Cursor::new(bytes)), bytes.len() as u64))
-            }
+        if let Some(bytes) = self.in_memory(path) {
+            return Ok((Box::new(io::Cursor::new(bytes)), bytes.len() as u64));
         }
+        let file = File::open(path).map_err(io_at(path))?;
+        let len = file.metadata().map_err(io_at(path))?.len();
+        Ok((Box::new(file), len))
     }
 }
 
