@@ -386,22 +386,63 @@ where
     (w, v)
 }
 
+/// A triangle's parts that do not depend on an expansion centre, which
+/// [`Multipole::of_parts`] would otherwise recompute at every level of a
+/// tree.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TriangleParts {
+    /// The corners.
+    pub corners: [DVec3; 3],
+    /// The area vector `½ (b − a) × (c − a)`.
+    pub area_vector: DVec3,
+    /// Its length, the area.
+    pub area: f64,
+    /// The area times the centroid: the triangle's share of the
+    /// area-weighted centre.
+    pub weighted: DVec3,
+}
+
+impl TriangleParts {
+    /// The parts of the triangle `t`.
+    pub fn new(t: [DVec3; 3]) -> Self {
+        let area_vector = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]);
+        let area = area_vector.length();
+        TriangleParts {
+            corners: t,
+            area_vector,
+            area,
+            weighted: area * (t[0] + t[1] + t[2]) / 3.0,
+        }
+    }
+
+    /// The centroid.
+    pub fn centroid(&self) -> DVec3 {
+        (self.corners[0] + self.corners[1] + self.corners[2]) / 3.0
+    }
+}
+
 impl Multipole {
     /// The multipole of `tris` about their area-weighted centroid (the
     /// centre of their bounding box when they have no area).
-    pub fn of(tris: impl Iterator<Item = [DVec3; 3]> + Clone) -> Self {
+    pub fn of(tris: impl Iterator<Item = [DVec3; 3]>) -> Self {
+        let parts: Vec<TriangleParts> = tris.map(TriangleParts::new).collect();
+        Self::of_parts(parts.iter())
+    }
+
+    /// [`Multipole::of`] from triangles whose centre-free parts are already
+    /// computed (a tree computes them once for all its levels): the same
+    /// value, bit for bit.
+    pub fn of_parts<'a>(tris: impl Iterator<Item = &'a TriangleParts> + Clone) -> Self {
         let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
         let (mut normal, mut abs_area, mut weighted) = (DVec3::ZERO, 0.0, DVec3::ZERO);
         for t in tris.clone() {
-            for p in t {
+            for p in t.corners {
                 lo = lo.min(p);
                 hi = hi.max(p);
             }
-            let n = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]);
-            let a = n.length();
-            normal += n;
-            abs_area += a;
-            weighted += a * (t[0] + t[1] + t[2]) / 3.0;
+            normal += t.area_vector;
+            abs_area += t.area;
+            weighted += t.weighted;
         }
         let centre = if abs_area > 0.0 {
             weighted / abs_area
@@ -412,11 +453,10 @@ impl Multipole {
         let mut third = [0.0; 10];
         let mut m = DMat3::ZERO;
         for t in tris {
-            let u = t.map(|p| p - centre);
+            let u = t.corners.map(|p| p - centre);
             let far = u.iter().map(|p| p.length()).fold(0.0, f64::max);
             radius = radius.max(far);
-            let n = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]);
-            let a = n.length();
+            let (n, a) = (t.area_vector, t.area);
             let c = (u[0] + u[1] + u[2]) / 3.0;
             // n cᵀ: column j is n c_j.
             m += DMat3::from_cols(n * c.x, n * c.y, n * c.z);

@@ -28,7 +28,7 @@ use rayon::prelude::*;
 
 use crate::voxelize::caps::boundary_edges;
 pub use crate::voxelize::expansion::LocalExpansion;
-use crate::voxelize::expansion::Multipole;
+use crate::voxelize::expansion::{Multipole, TriangleParts};
 use crate::voxelize::surface::{SurfaceTriangle, VOXEL_ONE};
 
 const FOUR_PI: f64 = 4.0 * std::f64::consts::PI;
@@ -293,22 +293,31 @@ impl WindingTree {
     /// ```
     pub fn new(triangles: &[SurfaceTriangle]) -> Self {
         let one = VOXEL_ONE as f64;
-        let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
-        let tri_f: Vec<[DVec3; 3]> = triangles
+        // The centre-free parts once, moved with their triangle as the
+        // levels split: every node then reads its triangles in one piece.
+        let mut entries: Vec<(TriangleParts, u32)> = triangles
             .par_iter()
-            .map(|t| t.map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / one))
-            .collect();
-        let centroids: Vec<DVec3> = tri_f
-            .par_iter()
-            .map(|t| (t[0] + t[1] + t[2]) / 3.0)
+            .enumerate()
+            .map(|(i, t)| {
+                let t = t.map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / one);
+                (TriangleParts::new(t), i as u32)
+            })
             .collect();
         let mut nodes = Vec::new();
         if !triangles.is_empty() {
-            nodes = vec![Node::default(); node_count(triangles.len())];
-            build(&mut nodes, 0, &mut order, 0, &tri_f, &centroids);
+            // Every node is written by `build`; the defaults touch the
+            // fresh pages from all threads first.
+            nodes = (0..node_count(triangles.len()))
+                .into_par_iter()
+                .map(|_| Node::default())
+                .collect();
+            build(&mut nodes, 0, &mut entries, 0);
         }
-        let tris = order.par_iter().map(|&i| tri_f[i as usize]).collect();
-        let fixed = order.par_iter().map(|&i| triangles[i as usize]).collect();
+        let tris = entries.par_iter().map(|e| e.0.corners).collect();
+        let fixed = entries
+            .par_iter()
+            .map(|e| triangles[e.1 as usize])
+            .collect();
         WindingTree {
             nodes,
             tris,
@@ -650,7 +659,7 @@ pub struct RimTree {
     segments: Vec<[DVec3; 2]>,
 }
 
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 struct RimNode {
     lo: DVec3,
     hi: DVec3,
@@ -676,7 +685,8 @@ impl RimTree {
             edges.into_iter().map(|(a, b)| [to(a), to(b)]).collect();
         let mut nodes = Vec::new();
         if !segments.is_empty() {
-            build_rim(&mut nodes, &mut segments, 0);
+            nodes = vec![RimNode::default(); node_count(segments.len())];
+            build_rim(&mut nodes, 0, &mut segments, 0);
         }
         RimTree { nodes, segments }
     }
@@ -729,7 +739,12 @@ impl RimTree {
     }
 }
 
-fn build_rim(nodes: &mut Vec<RimNode>, segs: &mut [[DVec3; 2]], start: usize) -> u32 {
+/// Builds the rim subtree over `segs` (the segments `start..` of the final
+/// order) into `nodes`, its [`node_count`] nodes in preorder, the first being
+/// node `id`: as [`build`], the halves in parallel with the sequential
+/// preorder's numbering.
+fn build_rim(nodes: &mut [RimNode], id: u32, segs: &mut [[DVec3; 2]], start: usize) {
+    debug_assert_eq!(nodes.len(), node_count(segs.len()));
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     let mut length = 0.0;
     for s in segs.iter() {
@@ -737,8 +752,8 @@ fn build_rim(nodes: &mut Vec<RimNode>, segs: &mut [[DVec3; 2]], start: usize) ->
         hi = hi.max(s[0]).max(s[1]);
         length += (s[1] - s[0]).length();
     }
-    let me = nodes.len();
-    nodes.push(RimNode {
+    let (head, rest) = nodes.split_first_mut().expect("a subtree has a node");
+    *head = RimNode {
         lo,
         hi,
         length,
@@ -746,20 +761,28 @@ fn build_rim(nodes: &mut Vec<RimNode>, segs: &mut [[DVec3; 2]], start: usize) ->
         end: (start + segs.len()) as u32,
         left: 0,
         right: 0,
-    });
+    };
     if segs.len() > LEAF {
         let axis = longest_axis(hi - lo);
         let mid = segs.len() / 2;
         segs.select_nth_unstable_by(mid, |a, b| {
             (a[0] + a[1])[axis].total_cmp(&(b[0] + b[1])[axis])
         });
+        let parallel = segs.len() > PARALLEL_BUILD;
         let (left, right) = segs.split_at_mut(mid);
-        let l = build_rim(nodes, left, start);
-        let r = build_rim(nodes, right, start + mid);
-        nodes[me].left = l;
-        nodes[me].right = r;
+        let (left_nodes, right_nodes) = rest.split_at_mut(node_count(mid));
+        let (l, r) = (id + 1, id + 1 + left_nodes.len() as u32);
+        let mut build_left = || build_rim(left_nodes, l, left, start);
+        let mut build_right = || build_rim(right_nodes, r, right, start + mid);
+        if parallel {
+            rayon::join(build_left, build_right);
+        } else {
+            build_left();
+            build_right();
+        }
+        head.left = l;
+        head.right = r;
     }
-    me as u32
 }
 
 /// Nodes of the tree over `n` triangles (leaves of at most [`LEAF`], split
@@ -775,50 +798,43 @@ fn node_count(n: usize) -> usize {
 /// Subtrees over more triangles than this are built in parallel.
 const PARALLEL_BUILD: usize = 4096;
 
-/// Builds the subtree over `order` (the triangles `start..` of the final
-/// order) into `nodes`, which holds exactly its [`node_count`] nodes in
+/// Builds the subtree over `entries` (the triangles `start..` of the final
+/// order, each with its index in the input) into `nodes`, which holds exactly its [`node_count`] nodes in
 /// preorder, the first being node `id`: each subtree's slice is known in
 /// advance, so the two halves are built in parallel and the numbering is
 /// the sequential preorder's.
-fn build(
-    nodes: &mut [Node],
-    id: u32,
-    order: &mut [u32],
-    start: usize,
-    tris: &[[DVec3; 3]],
-    centroids: &[DVec3],
-) {
-    debug_assert_eq!(nodes.len(), node_count(order.len()));
+fn build(nodes: &mut [Node], id: u32, entries: &mut [(TriangleParts, u32)], start: usize) {
+    debug_assert_eq!(nodes.len(), node_count(entries.len()));
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for &i in order.iter() {
-        for p in &tris[i as usize] {
+    for (t, _) in entries.iter() {
+        for p in &t.corners {
             lo = lo.min(*p);
             hi = hi.max(*p);
         }
     }
-    let pole = Multipole::of(order.iter().map(|&i| tris[i as usize]));
+    let pole = Multipole::of_parts(entries.iter().map(|e| &e.0));
     let (head, rest) = nodes.split_first_mut().expect("a subtree has a node");
     *head = Node {
         lo,
         hi,
         pole,
         start: start as u32,
-        end: (start + order.len()) as u32,
+        end: (start + entries.len()) as u32,
         left: 0,
         right: 0,
     };
-    if order.len() > LEAF {
+    if entries.len() > LEAF {
         let axis = longest_axis(hi - lo);
-        let mid = order.len() / 2;
-        order.select_nth_unstable_by(mid, |&a, &b| {
-            centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
+        let mid = entries.len() / 2;
+        entries.select_nth_unstable_by(mid, |a, b| {
+            a.0.centroid()[axis].total_cmp(&b.0.centroid()[axis])
         });
-        let parallel = order.len() > PARALLEL_BUILD;
-        let (left, right) = order.split_at_mut(mid);
+        let parallel = entries.len() > PARALLEL_BUILD;
+        let (left, right) = entries.split_at_mut(mid);
         let (left_nodes, right_nodes) = rest.split_at_mut(node_count(mid));
         let (l, r) = (id + 1, id + 1 + left_nodes.len() as u32);
-        let mut build_left = || build(left_nodes, l, left, start, tris, centroids);
-        let mut build_right = || build(right_nodes, r, right, start + mid, tris, centroids);
+        let mut build_left = || build(left_nodes, l, left, start);
+        let mut build_right = || build(right_nodes, r, right, start + mid);
         if parallel {
             rayon::join(build_left, build_right);
         } else {
