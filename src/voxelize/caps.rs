@@ -12,7 +12,9 @@
 //! always a union of cycles), and each cycle is closed by the fan of
 //! triangles `(P, a, b)` over its edges `a→b` from one apex `P` (its vertex
 //! centroid; a 3-cycle by its own triangle): along a cycle the spokes `P→a`
-//! cancel. Short cycles keep the caps on the holes they close. Then `S − S'`
+//! cancel. A cycle longer than `FAN_MAX` (16) is first halved by its shortest
+//! halving chord, recursively (`close_cycle`). Short cycles keep the caps on
+//! the holes they close. Then `S − S'`
 //! is closed, so
 //!
 //! `w_S(q) = w_{S−S'}(q) + w_{S'}(q)`
@@ -288,28 +290,7 @@ pub fn boundary_caps_with_rim(
     let mut caps = Vec::with_capacity(edges.len());
     for cycle in boundary_cycles(&edges, dist2) {
         let cycle: Vec<[i64; 3]> = cycle.into_iter().map(unpack).collect();
-        if let [a, b, c] = cycle[..] {
-            let t = [a, b, c];
-            if !zero_area(&t) {
-                caps.push(t);
-            }
-            continue;
-        }
-        let mut sum = [0i128; 3];
-        for a in &cycle {
-            for ax in 0..3 {
-                sum[ax] += a[ax] as i128;
-            }
-        }
-        let n = cycle.len() as i128;
-        // Round half away from zero: any apex gives valid caps.
-        let apex = sum.map(|s| ((2 * s + s.signum() * n) / (2 * n)) as i64);
-        for (i, &a) in cycle.iter().enumerate() {
-            let t = [apex, a, cycle[(i + 1) % cycle.len()]];
-            if !zero_area(&t) {
-                caps.push(t);
-            }
-        }
+        close_cycle(&cycle, &mut caps);
     }
     Caps {
         triangles: caps,
@@ -317,6 +298,64 @@ pub fn boundary_caps_with_rim(
         // (x in the high bits, no clamping below 2^30), so this is sorted
         // as `boundary_edges` sorts position keys.
         rim: edges.iter().map(|&(a, b)| (unpack(a), unpack(b))).collect(),
+    }
+}
+
+/// Cycles longer than this are halved before they are fanned.
+const FAN_MAX: usize = 16;
+
+/// Caps closing one directed cycle (`v0 → v1 → … → v0`, no vertex
+/// repeated), zero-area triangles dropped, appended to `caps`. A 3-cycle
+/// is its own triangle; a cycle of up to [`FAN_MAX`] vertices is fanned
+/// from its vertex centroid, triangles `(P, a, b)` over its edges `a → b`
+/// (the spokes `P → a` cancel along the cycle). A longer one is first cut
+/// by the chord `v0 – v_{n/2}` into two cycles that use it in opposite
+/// directions, recursively: a fan's triangles all meet at the apex and
+/// each is as long as the hole is wide, so every brick near a wide hole's
+/// cap would be near all of them, where halving leaves few large triangles
+/// and many small ones.
+fn close_cycle(cycle: &[[i64; 3]], caps: &mut Vec<SurfaceTriangle>) {
+    let mut push = |t: SurfaceTriangle| {
+        if !zero_area(&t) {
+            caps.push(t);
+        }
+    };
+    let n = cycle.len();
+    if let [a, b, c] = cycle[..] {
+        push([a, b, c]);
+        return;
+    }
+    if n > FAN_MAX {
+        // The shortest of the chords that halve the cycle.
+        let mid = n / 2;
+        let d2 = |p: [i64; 3], q: [i64; 3]| -> i128 {
+            (0..3)
+                .map(|k| (p[k] - q[k]) as i128 * (p[k] - q[k]) as i128)
+                .sum()
+        };
+        let i = (0..n - mid)
+            .min_by_key(|&i| (d2(cycle[i], cycle[i + mid]), i))
+            .unwrap_or(0);
+        close_cycle(&cycle[i..=i + mid], caps);
+        let rest: Vec<[i64; 3]> = cycle[i + mid..]
+            .iter()
+            .chain(&cycle[..=i])
+            .copied()
+            .collect();
+        close_cycle(&rest, caps);
+        return;
+    }
+    let mut sum = [0i128; 3];
+    for a in cycle {
+        for ax in 0..3 {
+            sum[ax] += a[ax] as i128;
+        }
+    }
+    let m = n as i128;
+    // Round half away from zero: any apex gives valid caps.
+    let apex = sum.map(|s| ((2 * s + s.signum() * m) / (2 * m)) as i64);
+    for (i, &a) in cycle.iter().enumerate() {
+        push([apex, a, cycle[(i + 1) % n]]);
     }
 }
 
@@ -621,6 +660,38 @@ mod tests {
         let (a, b) = ([0, 0, 0], [256, 0, 0]);
         for far in [[1 << 30, 0, 0], [0, -PACK_BIAS - 1, 0]] {
             assert_eq!(packed_boundary_edges(&[[a, b, far]], &[]), None);
+        }
+    }
+
+    /// A long hole's caps close it (their boundary is the cycle) without a
+    /// fan's apex: few caps meet at any vertex, so a brick near the cap is
+    /// near few of them (a fan puts all `n` at its apex).
+    #[test]
+    fn long_cycles_are_halved_not_fanned() {
+        for n in [3usize, 4, 9, 16, 17, 31, 64, 400] {
+            let cycle: Vec<[i64; 3]> = (0..n)
+                .map(|i| {
+                    let a = std::f64::consts::TAU * i as f64 / n as f64;
+                    let z = if i % 3 == 0 { 256 } else { 0 }; // not planar
+                    [(4e5 * a.cos()) as i64, (4e5 * a.sin()) as i64, z]
+                })
+                .collect();
+            let mut caps = Vec::new();
+            close_cycle(&cycle, &mut caps);
+            let mut want: Vec<_> = (0..n).map(|i| (cycle[i], cycle[(i + 1) % n])).collect();
+            want.sort_unstable();
+            assert_eq!(boundary_edges(caps.iter().copied()), want, "n = {n}");
+            let mut degree = HashMap::new();
+            for t in &caps {
+                for p in t {
+                    *degree.entry(*p).or_insert(0) += 1;
+                }
+            }
+            let most = degree.values().copied().max().unwrap_or(0);
+            assert!(
+                most <= FAN_MAX + 2 * n.ilog2() as usize,
+                "n = {n}: {most} caps at one vertex"
+            );
         }
     }
 
