@@ -311,7 +311,15 @@ impl WindingTree {
                 .into_par_iter()
                 .map(|_| Node::default())
                 .collect();
-            build(&mut nodes, 0, &mut entries, 0);
+            build_median(
+                &mut nodes,
+                0,
+                &mut entries,
+                0,
+                &triangle_node,
+                &|e, axis| e.0.centroid()[axis],
+                &|n: &mut Node, l, r| (n.left, n.right) = (l, r),
+            );
         }
         let tris = entries.par_iter().map(|e| e.0.corners).collect();
         let fixed = entries
@@ -686,7 +694,15 @@ impl RimTree {
         let mut nodes = Vec::new();
         if !segments.is_empty() {
             nodes = vec![RimNode::default(); node_count(segments.len())];
-            build_rim(&mut nodes, 0, &mut segments, 0);
+            build_median(
+                &mut nodes,
+                0,
+                &mut segments,
+                0,
+                &rim_node,
+                &|s, axis| (s[0] + s[1])[axis],
+                &|n: &mut RimNode, l, r| (n.left, n.right) = (l, r),
+            );
         }
         RimTree { nodes, segments }
     }
@@ -739,52 +755,6 @@ impl RimTree {
     }
 }
 
-/// Builds the rim subtree over `segs` (the segments `start..` of the final
-/// order) into `nodes`, its [`node_count`] nodes in preorder, the first being
-/// node `id`: as [`build`], the halves in parallel with the sequential
-/// preorder's numbering.
-fn build_rim(nodes: &mut [RimNode], id: u32, segs: &mut [[DVec3; 2]], start: usize) {
-    debug_assert_eq!(nodes.len(), node_count(segs.len()));
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    let mut length = 0.0;
-    for s in segs.iter() {
-        lo = lo.min(s[0]).min(s[1]);
-        hi = hi.max(s[0]).max(s[1]);
-        length += (s[1] - s[0]).length();
-    }
-    let (head, rest) = nodes.split_first_mut().expect("a subtree has a node");
-    *head = RimNode {
-        lo,
-        hi,
-        length,
-        start: start as u32,
-        end: (start + segs.len()) as u32,
-        left: 0,
-        right: 0,
-    };
-    if segs.len() > LEAF {
-        let axis = longest_axis(hi - lo);
-        let mid = segs.len() / 2;
-        segs.select_nth_unstable_by(mid, |a, b| {
-            (a[0] + a[1])[axis].total_cmp(&(b[0] + b[1])[axis])
-        });
-        let parallel = segs.len() > PARALLEL_BUILD;
-        let (left, right) = segs.split_at_mut(mid);
-        let (left_nodes, right_nodes) = rest.split_at_mut(node_count(mid));
-        let (l, r) = (id + 1, id + 1 + left_nodes.len() as u32);
-        let mut build_left = || build_rim(left_nodes, l, left, start);
-        let mut build_right = || build_rim(right_nodes, r, right, start + mid);
-        if parallel {
-            rayon::join(build_left, build_right);
-        } else {
-            build_left();
-            build_right();
-        }
-        head.left = l;
-        head.right = r;
-    }
-}
-
 /// Nodes of the tree over `n` triangles (leaves of at most [`LEAF`], split
 /// at the median).
 fn node_count(n: usize) -> usize {
@@ -798,52 +768,87 @@ fn node_count(n: usize) -> usize {
 /// Subtrees over more triangles than this are built in parallel.
 const PARALLEL_BUILD: usize = 4096;
 
-/// Builds the subtree over `entries` (the triangles `start..` of the final
-/// order, each with its index in the input) into `nodes`, which holds exactly its [`node_count`] nodes in
-/// preorder, the first being node `id`: each subtree's slice is known in
-/// advance, so the two halves are built in parallel and the numbering is
-/// the sequential preorder's.
-fn build(nodes: &mut [Node], id: u32, entries: &mut [(TriangleParts, u32)], start: usize) {
-    debug_assert_eq!(nodes.len(), node_count(entries.len()));
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for (t, _) in entries.iter() {
-        for p in &t.corners {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
-        }
-    }
-    let pole = Multipole::of_parts(entries.iter().map(|e| &e.0));
+/// Builds the subtree over `items` (the items `start..` of the final order)
+/// into `nodes`, which holds exactly its [`node_count`] nodes in preorder,
+/// the first being node `id`: `node` makes a node of its items (with their
+/// box, whose longest axis the split takes), the items are split at the
+/// median of `key` along that axis, and `link` records the children. Each
+/// subtree's slice is known in advance, so the two halves are built in
+/// parallel and the numbering is the sequential preorder's. Both trees
+/// (triangles, rim segments) are built by it.
+fn build_median<T: Send, N: Send>(
+    nodes: &mut [N],
+    id: u32,
+    items: &mut [T],
+    start: usize,
+    node: &(impl Fn(&[T], usize) -> (N, DVec3, DVec3) + Sync),
+    key: &(impl Fn(&T, usize) -> f64 + Sync),
+    link: &(impl Fn(&mut N, u32, u32) + Sync),
+) {
+    debug_assert_eq!(nodes.len(), node_count(items.len()));
+    let (made, lo, hi) = node(items, start);
     let (head, rest) = nodes.split_first_mut().expect("a subtree has a node");
-    *head = Node {
-        lo,
-        hi,
-        pole,
-        start: start as u32,
-        end: (start + entries.len()) as u32,
-        left: 0,
-        right: 0,
-    };
-    if entries.len() > LEAF {
+    *head = made;
+    if items.len() > LEAF {
         let axis = longest_axis(hi - lo);
-        let mid = entries.len() / 2;
-        entries.select_nth_unstable_by(mid, |a, b| {
-            a.0.centroid()[axis].total_cmp(&b.0.centroid()[axis])
-        });
-        let parallel = entries.len() > PARALLEL_BUILD;
-        let (left, right) = entries.split_at_mut(mid);
+        let mid = items.len() / 2;
+        items.select_nth_unstable_by(mid, |a, b| key(a, axis).total_cmp(&key(b, axis)));
+        let parallel = items.len() > PARALLEL_BUILD;
+        let (left, right) = items.split_at_mut(mid);
         let (left_nodes, right_nodes) = rest.split_at_mut(node_count(mid));
         let (l, r) = (id + 1, id + 1 + left_nodes.len() as u32);
-        let mut build_left = || build(left_nodes, l, left, start);
-        let mut build_right = || build(right_nodes, r, right, start + mid);
+        let mut build_left = || build_median(left_nodes, l, left, start, node, key, link);
+        let mut build_right = || build_median(right_nodes, r, right, start + mid, node, key, link);
         if parallel {
             rayon::join(build_left, build_right);
         } else {
             build_left();
             build_right();
         }
-        head.left = l;
-        head.right = r;
+        link(head, l, r);
     }
+}
+
+/// A node of the triangle tree over `entries` (the triangles `start..`).
+fn triangle_node(entries: &[(TriangleParts, u32)], start: usize) -> (Node, DVec3, DVec3) {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for (t, _) in entries {
+        for p in &t.corners {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+    }
+    let node = Node {
+        lo,
+        hi,
+        pole: Multipole::of_parts(entries.iter().map(|e| &e.0)),
+        start: start as u32,
+        end: (start + entries.len()) as u32,
+        left: 0,
+        right: 0,
+    };
+    (node, lo, hi)
+}
+
+/// A node of the rim tree over `segs` (the segments `start..`).
+fn rim_node(segs: &[[DVec3; 2]], start: usize) -> (RimNode, DVec3, DVec3) {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    let mut length = 0.0;
+    for s in segs {
+        lo = lo.min(s[0]).min(s[1]);
+        hi = hi.max(s[0]).max(s[1]);
+        length += (s[1] - s[0]).length();
+    }
+    let node = RimNode {
+        lo,
+        hi,
+        length,
+        start: start as u32,
+        end: (start + segs.len()) as u32,
+        left: 0,
+        right: 0,
+    };
+    (node, lo, hi)
 }
 
 /// Triangle–box overlap by the 13 separating axes (Akenine-Möller), on the
