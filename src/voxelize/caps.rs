@@ -69,24 +69,27 @@ where
     uncancelled(
         &uses,
         |x, y| (x.0, x.1) == (y.0, y.1),
-        |u| (u.0, u.1, i64::from(u.2)),
+        |u| i64::from(u.2),
+        |u| (u.0, u.1),
     )
 }
 
 /// The edges whose uses do not cancel, from uses sorted so that the uses of
-/// one edge are adjacent (`same`): each group's `(smaller, larger, ±1)`
-/// summed, the edge directed by the sum's sign and repeated by its size.
-/// Sorted.
+/// one edge are adjacent (`same`): each group's signs (`+1` for a use
+/// `smaller → larger`, `−1` the other way) summed, its edge (`(smaller,
+/// larger)`, read once a group) directed by the sum's sign and repeated by
+/// its size. Sorted.
 fn uncancelled<U: Sync, K: Copy + Ord + Send>(
     uses: &[U],
     same: impl Fn(&U, &U) -> bool + Send + Sync,
-    edge: impl Fn(&U) -> (K, K, i64) + Sync,
+    sign: impl Fn(&U) -> i64 + Sync,
+    edge: impl Fn(&U) -> (K, K) + Sync,
 ) -> Vec<(K, K)> {
     let mut out: Vec<(K, K)> = uses
         .par_chunk_by(same)
         .flat_map_iter(|group| {
-            let m: i64 = group.iter().map(|u| edge(u).2).sum();
-            let (a, b, _) = edge(&group[0]);
+            let m: i64 = group.iter().map(&sign).sum();
+            let (a, b) = edge(&group[0]);
             let e = if m > 0 { (a, b) } else { (b, a) };
             std::iter::repeat_n(e, m.unsigned_abs() as usize)
         })
@@ -105,6 +108,13 @@ fn packed_position(p: [i64; 3]) -> u128 {
     p.iter().fold(0u128, |k, &c| {
         (k << 32) | (c + PACK_BIAS).clamp(0, u32::MAX as i64) as u128
     })
+}
+
+/// The squared distance between two fixed-point positions, exactly.
+fn distance2(p: [i64; 3], q: [i64; 3]) -> i128 {
+    (0..3)
+        .map(|k| (p[k] - q[k]) as i128 * (p[k] - q[k]) as i128)
+        .sum()
 }
 
 /// The position of a [`packed_position`] key.
@@ -159,6 +169,7 @@ fn packed_boundary_edges(
     Some(uncancelled(
         &uses[..end],
         |x, y| key(x) == key(y),
+        |u| if u[0] & 1 == 1 { 1 } else { -1 },
         |u| {
             let c = [
                 u[0] >> (BITS + 2),
@@ -170,8 +181,7 @@ fn packed_boundary_edges(
             ]
             .map(|c| c as i64 - PACK_BIAS);
             let (lo, hi) = ([c[0], c[1], c[2]], [c[3], c[4], c[5]]);
-            let sign = if u[0] & 1 == 1 { 1 } else { -1 };
-            (packed_position(lo), packed_position(hi), sign)
+            (packed_position(lo), packed_position(hi))
         },
     ))
 }
@@ -280,16 +290,10 @@ pub fn boundary_caps_with_rim(
         let soup = triangles.iter().chain(degenerate);
         boundary_edges(soup.map(|t| t.map(packed_position)))
     });
-    let unpack = unpacked_position;
-    let dist2 = |a: u128, b: u128| -> i128 {
-        let (p, q) = (unpack(a), unpack(b));
-        (0..3)
-            .map(|k| (p[k] - q[k]) as i128 * (p[k] - q[k]) as i128)
-            .sum()
-    };
+    let dist2 = |a: u128, b: u128| distance2(unpacked_position(a), unpacked_position(b));
     let mut caps = Vec::with_capacity(edges.len());
     for cycle in boundary_cycles(&edges, dist2) {
-        let cycle: Vec<[i64; 3]> = cycle.into_iter().map(unpack).collect();
+        let cycle: Vec<[i64; 3]> = cycle.into_iter().map(unpacked_position).collect();
         close_cycle(&cycle, &mut caps);
     }
     Caps {
@@ -297,7 +301,10 @@ pub fn boundary_caps_with_rim(
         // `packed_position` is monotone in the lexicographic order of `[i64; 3]`
         // (x in the high bits, no clamping below 2^30), so this is sorted
         // as `boundary_edges` sorts position keys.
-        rim: edges.iter().map(|&(a, b)| (unpack(a), unpack(b))).collect(),
+        rim: edges
+            .iter()
+            .map(|&(a, b)| (unpacked_position(a), unpacked_position(b)))
+            .collect(),
     }
 }
 
@@ -309,8 +316,8 @@ const FAN_MAX: usize = 16;
 /// is its own triangle; a cycle of up to [`FAN_MAX`] vertices is fanned
 /// from its vertex centroid, triangles `(P, a, b)` over its edges `a → b`
 /// (the spokes `P → a` cancel along the cycle). A longer one is first cut
-/// by the chord `v0 – v_{n/2}` into two cycles that use it in opposite
-/// directions, recursively: a fan's triangles all meet at the apex and
+/// by the shortest chord `v_i – v_{i+⌊n/2⌋}` into two cycles that use it in
+/// opposite directions, recursively: a fan's triangles all meet at the apex and
 /// each is as long as the hole is wide, so every brick near a wide hole's
 /// cap would be near all of them, where halving leaves few large triangles
 /// and many small ones.
@@ -328,13 +335,8 @@ fn close_cycle(cycle: &[[i64; 3]], caps: &mut Vec<SurfaceTriangle>) {
     if n > FAN_MAX {
         // The shortest of the chords that halve the cycle.
         let mid = n / 2;
-        let d2 = |p: [i64; 3], q: [i64; 3]| -> i128 {
-            (0..3)
-                .map(|k| (p[k] - q[k]) as i128 * (p[k] - q[k]) as i128)
-                .sum()
-        };
         let i = (0..n - mid)
-            .min_by_key(|&i| (d2(cycle[i], cycle[i + mid]), i))
+            .min_by_key(|&i| (distance2(cycle[i], cycle[i + mid]), i))
             .unwrap_or(0);
         close_cycle(&cycle[i..=i + mid], caps);
         let rest: Vec<[i64; 3]> = cycle[i + mid..]

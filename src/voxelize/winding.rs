@@ -305,12 +305,7 @@ impl WindingTree {
             .collect();
         let mut nodes = Vec::new();
         if !triangles.is_empty() {
-            // Every node is written by `build`; the defaults touch the
-            // fresh pages from all threads first.
-            nodes = (0..node_count(triangles.len()))
-                .into_par_iter()
-                .map(|_| Node::default())
-                .collect();
+            nodes = fresh_nodes(node_count(triangles.len()));
             build_median(
                 &mut nodes,
                 0,
@@ -693,7 +688,7 @@ impl RimTree {
             edges.into_iter().map(|(a, b)| [to(a), to(b)]).collect();
         let mut nodes = Vec::new();
         if !segments.is_empty() {
-            nodes = vec![RimNode::default(); node_count(segments.len())];
+            nodes = fresh_nodes(node_count(segments.len()));
             build_median(
                 &mut nodes,
                 0,
@@ -763,6 +758,13 @@ fn node_count(n: usize) -> usize {
     } else {
         1 + node_count(n / 2) + node_count(n - n / 2)
     }
+}
+
+/// `n` default nodes for [`build_median`] to overwrite, written from all
+/// threads: on large meshes they are tens of MB of fresh pages, which a
+/// serial fill would first touch on one core.
+fn fresh_nodes<N: Default + Send>(n: usize) -> Vec<N> {
+    (0..n).into_par_iter().map(|_| N::default()).collect()
 }
 
 /// Subtrees over more triangles than this are built in parallel.
