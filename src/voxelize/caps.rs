@@ -123,67 +123,120 @@ fn unpacked_position(k: u128) -> [i64; 3] {
 }
 
 /// [`boundary_edges`] of the fixed-point triangles `first` and `second` by
-/// [`packed_position`] keys,
-/// each use packed in 24 bytes instead of 48 (the six biased coordinates in
-/// 31 bits each, the sign in the lowest bit) and written in parallel: on
-/// large meshes the uses' fresh memory is most of the caps' time. `None`
-/// when a coordinate is beyond `±2^30`.
+/// [`packed_position`] keys, each use packed into one integer and written
+/// in parallel: on large meshes the uses' fresh memory and their sort are
+/// most of the caps' time. The six coordinates, less the soup's smallest,
+/// take 21 bits each in a `u128` (16 bytes a use) when the soup spans less
+/// than 2^21 (8,192 voxels), else 31 bits each in three `u64` (24 bytes),
+/// the sign in the lowest bit either way. `None` when a coordinate is
+/// beyond `±2^30`.
 fn packed_boundary_edges(
     first: &[SurfaceTriangle],
     second: &[SurfaceTriangle],
 ) -> Option<Vec<(u128, u128)>> {
-    const BITS: u32 = 31;
-    let fits = |c: i64| (0..1 << BITS).contains(&(c + PACK_BIAS));
     let soup = first.par_iter().chain(second);
-    if !soup.all(|t| t.iter().flatten().all(|&c| fits(c))) {
+    let (min, max) = soup
+        .map(|t| {
+            let c = t.iter().flatten();
+            (*c.clone().min().unwrap_or(&0), *c.max().unwrap_or(&0))
+        })
+        .reduce(|| (i64::MAX, i64::MIN), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+    if min < -PACK_BIAS || max >= PACK_BIAS {
         return None;
     }
+    let narrow = max - min < 1 << 21;
+    if narrow {
+        const BITS: u32 = 21;
+        let mask = (1u128 << BITS) - 1;
+        let point = |p: [i64; 3]| p.iter().fold(0u128, |k, &c| k << BITS | (c - min) as u128);
+        let unpoint = |k: u128| [2, 1, 0].map(|i| ((k >> (BITS * i)) & mask) as i64 + min);
+        Some(edges_of_packed_uses(
+            first,
+            second,
+            // (lo | hi | sign): bits 64..127, 1..64 and 0.
+            |lo, hi, sign| point(lo) << 64 | point(hi) << 1 | sign as u128,
+            u128::MAX,
+            |u| u >> 1,
+            |u| u & 1 == 1,
+            |u| (unpoint(u >> 64), unpoint(u >> 1 & ((1 << 63) - 1))),
+        ))
+    } else {
+        const BITS: u32 = 31;
+        let mask = (1u64 << BITS) - 1;
+        let biased = |p: [i64; 3]| p.map(|c| (c + PACK_BIAS) as u64);
+        Some(edges_of_packed_uses(
+            first,
+            second,
+            // (x y | sign), (z x'), (y' z'): in the order of (lo, hi).
+            |lo, hi, sign| {
+                let (p, q) = (biased(lo), biased(hi));
+                [
+                    (p[0] << BITS | p[1]) << 2 | sign,
+                    p[2] << BITS | q[0],
+                    q[1] << BITS | q[2],
+                ]
+            },
+            [u64::MAX; 3],
+            |u| (u[0] >> 1, u[1], u[2]),
+            |u| u[0] & 1 == 1,
+            |u| {
+                let c = [
+                    u[0] >> (BITS + 2),
+                    (u[0] >> 2) & mask,
+                    u[1] >> BITS,
+                    u[1] & mask,
+                    u[2] >> BITS,
+                    u[2] & mask,
+                ]
+                .map(|c| c as i64 - PACK_BIAS);
+                ([c[0], c[1], c[2]], [c[3], c[4], c[5]])
+            },
+        ))
+    }
+}
+
+/// The driver of [`packed_boundary_edges`] for one packing: every use
+/// `encode(smaller, larger, sign)` (sign 1 for `smaller → larger`), in
+/// parallel, degenerate edges as `none` (which must sort last by `key`
+/// and equal no use); sorted by `key` (the use without its sign), grouped,
+/// and each uncancelled edge decoded to [`packed_position`] keys.
+fn edges_of_packed_uses<U, K>(
+    first: &[SurfaceTriangle],
+    second: &[SurfaceTriangle],
+    encode: impl Fn([i64; 3], [i64; 3], u64) -> U + Sync,
+    none: U,
+    key: impl Fn(&U) -> K + Sync + Send + Copy,
+    forward: impl Fn(&U) -> bool + Sync,
+    decode: impl Fn(&U) -> ([i64; 3], [i64; 3]) + Sync,
+) -> Vec<(u128, u128)>
+where
+    U: Copy + PartialEq + Send + Sync,
+    K: Ord + Send,
+{
     let triangle = |i: usize| first.get(i).unwrap_or_else(|| &second[i - first.len()]);
-    // Degenerate edges (a == b) become this, which no use can be (its
-    // middle word would need bit 63) and which sorts last.
-    const NONE: [u64; 3] = [u64::MAX; 3];
-    let biased = |p: [i64; 3]| p.map(|c| (c + PACK_BIAS) as u64);
-    let mut uses: Vec<[u64; 3]> = (0..3 * (first.len() + second.len()))
+    let mut uses: Vec<U> = (0..3 * (first.len() + second.len()))
         .into_par_iter()
         .map(|u| {
             let t = triangle(u / 3);
             let (a, b) = (t[u % 3], t[(u + 1) % 3]);
-            let (lo, hi, sign) = match a.cmp(&b) {
-                std::cmp::Ordering::Less => (a, b, 1),
-                std::cmp::Ordering::Greater => (b, a, 0),
-                std::cmp::Ordering::Equal => return NONE,
-            };
-            let (p, q) = (biased(lo), biased(hi));
-            // (x y | sign), (z x'), (y' z'): in the order of (lo, hi).
-            [
-                (p[0] << BITS | p[1]) << 2 | sign,
-                p[2] << BITS | q[0],
-                q[1] << BITS | q[2],
-            ]
+            match a.cmp(&b) {
+                std::cmp::Ordering::Less => encode(a, b, 1),
+                std::cmp::Ordering::Greater => encode(b, a, 0),
+                std::cmp::Ordering::Equal => none,
+            }
         })
         .collect();
-    let key = |u: &[u64; 3]| (u[0] >> 1, u[1], u[2]);
     uses.par_sort_unstable_by_key(key);
-    let end = uses.partition_point(|u| *u != NONE);
-    let mask = (1u64 << BITS) - 1;
-    Some(uncancelled(
+    let end = uses.partition_point(|u| *u != none);
+    uncancelled(
         &uses[..end],
         |x, y| key(x) == key(y),
-        |u| if u[0] & 1 == 1 { 1 } else { -1 },
+        |u| if forward(u) { 1 } else { -1 },
         |u| {
-            let c = [
-                u[0] >> (BITS + 2),
-                (u[0] >> 2) & mask,
-                u[1] >> BITS,
-                u[1] & mask,
-                u[2] >> BITS,
-                u[2] & mask,
-            ]
-            .map(|c| c as i64 - PACK_BIAS);
-            let (lo, hi) = ([c[0], c[1], c[2]], [c[3], c[4], c[5]]);
+            let (lo, hi) = decode(u);
             (packed_position(lo), packed_position(hi))
         },
-    ))
+    )
 }
 
 /// Groups boundary edges by connected component (edges sharing a vertex),
@@ -286,25 +339,63 @@ pub fn boundary_caps_with_rim(
     triangles: &[SurfaceTriangle],
     degenerate: &[SurfaceTriangle],
 ) -> Caps {
-    let edges = packed_boundary_edges(triangles, degenerate).unwrap_or_else(|| {
-        let soup = triangles.iter().chain(degenerate);
-        boundary_edges(soup.map(|t| t.map(packed_position)))
-    });
-    let dist2 = |a: u128, b: u128| distance2(unpacked_position(a), unpacked_position(b));
-    let mut caps = Vec::with_capacity(edges.len());
-    for cycle in boundary_cycles(&edges, dist2) {
-        let cycle: Vec<[i64; 3]> = cycle.into_iter().map(unpacked_position).collect();
-        close_cycle(&cycle, &mut caps);
-    }
+    let boundary = Boundary::of(triangles, degenerate);
     Caps {
-        triangles: caps,
-        // `packed_position` is monotone in the lexicographic order of `[i64; 3]`
-        // (x in the high bits, no clamping below 2^30), so this is sorted
-        // as `boundary_edges` sorts position keys.
-        rim: edges
+        triangles: boundary.caps(),
+        rim: boundary.edges().collect(),
+    }
+}
+
+/// A soup's boundary `∂S` ([`boundary_edges`] of the triangles and the
+/// degenerate ones), kept packed: the caps over it ([`Boundary::caps`])
+/// and a tree of its edges (the rim the caps' bounds need) can then be
+/// built at the same time, the serial cycle search on one core and the
+/// tree on the other.
+#[derive(Clone, Debug, Default)]
+pub struct Boundary {
+    /// Sorted [`packed_position`] pairs, with multiplicity.
+    edges: Vec<(u128, u128)>,
+}
+
+impl Boundary {
+    /// The boundary of `triangles` with `degenerate` (zero-area triangles,
+    /// which still pair their neighbours' edges).
+    pub fn of(triangles: &[SurfaceTriangle], degenerate: &[SurfaceTriangle]) -> Self {
+        let edges = packed_boundary_edges(triangles, degenerate).unwrap_or_else(|| {
+            let soup = triangles.iter().chain(degenerate);
+            boundary_edges(soup.map(|t| t.map(packed_position)))
+        });
+        Boundary { edges }
+    }
+
+    /// Number of directed edges (with multiplicity).
+    pub fn len(&self) -> usize {
+        self.edges.len()
+    }
+
+    /// Whether the soup is closed (and consistently oriented).
+    pub fn is_empty(&self) -> bool {
+        self.edges.is_empty()
+    }
+
+    /// The edges, sorted as [`boundary_edges`] sorts them: `packed_position`
+    /// is monotone in the lexicographic order of `[i64; 3]` (x in the high
+    /// bits, no clamping below 2^30).
+    pub fn edges(&self) -> impl Iterator<Item = ([i64; 3], [i64; 3])> + '_ {
+        self.edges
             .iter()
             .map(|&(a, b)| (unpacked_position(a), unpacked_position(b)))
-            .collect(),
+    }
+
+    /// The caps closing the boundary (as [`boundary_caps`] returns them).
+    pub fn caps(&self) -> Vec<SurfaceTriangle> {
+        let dist2 = |a: u128, b: u128| distance2(unpacked_position(a), unpacked_position(b));
+        let mut caps = Vec::with_capacity(self.edges.len());
+        for cycle in boundary_cycles(&self.edges, dist2) {
+            let cycle: Vec<[i64; 3]> = cycle.into_iter().map(unpacked_position).collect();
+            close_cycle(&cycle, &mut caps);
+        }
+        caps
     }
 }
 
@@ -393,57 +484,32 @@ pub fn boundary_cycles<K: Copy + Ord + Hash + Send + Sync>(
     let edges = &sorted[..];
     let g = OutEdges::new(edges);
     let mut used = vec![false; edges.len()];
-    // An unused edge `a → b` not in `skip`.
-    let find = |used: &[bool], a: u32, b: u32, skip: &[usize]| -> Option<usize> {
-        g.out(a)
-            .find(|&i| !used[i] && g.target[i] == b && !skip.contains(&i))
-    };
     let mut cycles = Vec::new();
-    // Triangles, then quadrilaterals.
+    // Triangles, then quadrilaterals. Each edge's first cycle is searched
+    // for in parallel with the edges used before the pass; the serial pass
+    // takes it while its edges are still unused (then it is also the first
+    // among the cycles of unused edges, which only shrink) and searches
+    // again only when another cycle took one of them.
     for len in [3usize, 4] {
-        for i in 0..edges.len() {
-            if used[i] {
+        let first: Vec<Option<[u32; 4]>> = (0..edges.len())
+            .into_par_iter()
+            .map(|i| short_cycle(&g, i, len, |e| used[e]))
+            .collect();
+        for (i, first) in first.into_iter().enumerate() {
+            let Some(ids) = first else { continue };
+            let fresh = |ids: &[u32; 4]| ids[..len].iter().all(|&e| !used[e as usize]);
+            let ids = if fresh(&ids) {
+                ids
+            } else if used[i] {
                 continue;
-            }
-            let (a, b) = (g.source[i], g.target[i]);
-            let mut found: Option<Vec<usize>> = None;
-            'search: for j in g.out(b) {
-                if used[j] || j == i {
-                    continue;
-                }
-                let c = g.target[j];
-                if len == 3 {
-                    if c != a
-                        && c != b
-                        && let Some(k) = find(&used, c, a, &[i, j])
-                    {
-                        found = Some(vec![i, j, k]);
-                        break 'search;
-                    }
-                    continue;
-                }
-                if c == a || c == b {
-                    continue;
-                }
-                for k in g.out(c) {
-                    if used[k] || k == i || k == j {
-                        continue;
-                    }
-                    let d = g.target[k];
-                    if d == a || d == b || d == c {
-                        continue;
-                    }
-                    if let Some(l) = find(&used, d, a, &[i, j, k]) {
-                        found = Some(vec![i, j, k, l]);
-                        break 'search;
-                    }
-                }
-            }
-            if let Some(ids) = found {
-                cycles.push(ids.iter().map(|&e| edges[e].0).collect());
-                for e in ids {
-                    used[e] = true;
-                }
+            } else if let Some(ids) = short_cycle(&g, i, len, |e| used[e]) {
+                ids
+            } else {
+                continue;
+            };
+            cycles.push(ids[..len].iter().map(|&e| edges[e as usize].0).collect());
+            for &e in &ids[..len] {
+                used[e as usize] = true;
             }
         }
     }
@@ -486,6 +552,56 @@ pub fn boundary_cycles<K: Copy + Ord + Hash + Send + Sync>(
         }
     }
     cycles
+}
+
+/// The first directed cycle of `len` (3 or 4) edges through edge `i`, `i`
+/// first, visiting no vertex twice, among the edges `used` does not hold:
+/// the edges in order (unused lanes `u32::MAX`). "First" is in the order of
+/// the out-edge lists, the second edge varying slowest.
+fn short_cycle<K: Copy + Ord + Send + Sync>(
+    g: &OutEdges<K>,
+    i: usize,
+    len: usize,
+    used: impl Fn(usize) -> bool,
+) -> Option<[u32; 4]> {
+    if used(i) {
+        return None;
+    }
+    let (a, b) = (g.source[i], g.target[i]);
+    // An unused edge `from → to` not in `skip`.
+    let find = |from: u32, to: u32, skip: &[usize]| -> Option<usize> {
+        g.out(from)
+            .find(|&e| !used(e) && g.target[e] == to && !skip.contains(&e))
+    };
+    let id = |e: usize| e as u32;
+    for j in g.out(b) {
+        if used(j) || j == i {
+            continue;
+        }
+        let c = g.target[j];
+        if c == a || c == b {
+            continue;
+        }
+        if len == 3 {
+            if let Some(k) = find(c, a, &[i, j]) {
+                return Some([id(i), id(j), id(k), u32::MAX]);
+            }
+            continue;
+        }
+        for k in g.out(c) {
+            if used(k) || k == i || k == j {
+                continue;
+            }
+            let d = g.target[k];
+            if d == a || d == b || d == c {
+                continue;
+            }
+            if let Some(l) = find(d, a, &[i, j, k]) {
+                return Some([id(i), id(j), id(k), id(l)]);
+            }
+        }
+    }
+    None
 }
 
 /// A sorted directed edge list as a dense graph: vertices numbered in key
@@ -634,13 +750,19 @@ mod tests {
     fn packed_edges_equal_the_generic_sort() {
         use rand::{Rng, SeedableRng};
         let mut rng = rand::rngs::StdRng::seed_from_u64(5);
-        let limit = (1i64 << 30) - 1;
-        for trial in 0..200 {
+        for trial in 0..300 {
+            // Extremes of the 31-bit packing, of the 21-bit one (a span of
+            // 2^21 − 1), and one beyond the 21-bit one.
+            let (low, high) = match trial % 3 {
+                0 => (-PACK_BIAS, PACK_BIAS - 1),
+                1 => (-12_345, -12_345 + (1 << 21) - 1),
+                _ => (-12_345, -12_345 + (1 << 21)),
+            };
             let lattice: Vec<[i64; 3]> = (0..rng.random_range(3..12))
                 .map(|_| {
                     [0, 1, 2].map(|_| match rng.random_range(0..6) {
-                        0 => -PACK_BIAS,
-                        1 => limit,
+                        0 => low,
+                        1 => high,
                         _ => rng.random_range(-4..4) * 256,
                     })
                 })

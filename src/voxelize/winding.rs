@@ -330,15 +330,12 @@ impl WindingTree {
     }
 
     /// [`WindingTree::new`] with its rim ([`RimTree`], which the box bounds
-    /// need) built at the same time from `rim`, on another thread where
-    /// there is one. `rim` must be the soup's boundary edges or a chain with
-    /// the same Biot–Savart field off the soup (the boundary that caps close:
-    /// [`crate::voxelize::caps::Caps::rim`]), so that the box bounds hold.
-    pub fn with_rim(triangles: &[SurfaceTriangle], rim: &[([i64; 3], [i64; 3])]) -> Self {
-        let (tree, rim) = rayon::join(
-            || WindingTree::new(triangles),
-            || RimTree::from_edges(rim.iter().copied()),
-        );
+    /// need) given instead of built on first use. `rim` must be over the
+    /// soup's boundary edges or a chain with the same Biot–Savart field off
+    /// the soup (the boundary that caps close:
+    /// [`crate::voxelize::caps::Boundary`]), so that the box bounds hold.
+    pub fn with_rim(triangles: &[SurfaceTriangle], rim: RimTree) -> Self {
+        let tree = WindingTree::new(triangles);
         let _ = tree.rim.set(rim);
         tree
     }
@@ -640,6 +637,34 @@ pub enum NearNodes {
     /// one multipole, not as its leaves one by one. The list can still be
     /// summed directly: a node's triangles are its leaves' triangles.
     Coarse,
+}
+
+/// The winding number of a fixed-point soup at `q` by summing every
+/// triangle with the exact kernel, as [`WindingTree::point_exact`] does but
+/// without a tree: for a few points over a large soup, where building the
+/// tree would cost more than the sums. `None` when `q` lies on a triangle
+/// (tested exactly when `q` is on the fixed-point lattice). Summed in
+/// fixed chunks, then in order: the same value on any number of threads.
+pub fn soup_winding(triangles: &[SurfaceTriangle], q: DVec3) -> Option<f64> {
+    let one = VOXEL_ONE as f64;
+    let qf = q.to_array().map(|c| (c * one).round() as i64);
+    let exact = (q * one).to_array() == qf.map(|c| c as f64);
+    let to = |p: [i64; 3]| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / one;
+    let sums: Vec<Option<f64>> = triangles
+        .par_chunks(4096)
+        .map(|chunk| {
+            let mut sum = 0.0;
+            for t in chunk {
+                if exact && on_triangle(t, qf) {
+                    return None;
+                }
+                let [a, b, c] = t.map(|p| to(p) - q);
+                sum += solid_angle(a, b, c) / FOUR_PI;
+            }
+            Some(sum)
+        })
+        .collect();
+    sums.into_iter().sum()
 }
 
 /// [`WindingTree::far_field`]: the far field over a box and the leaves left
@@ -1356,5 +1381,52 @@ mod tests {
         assert!(tree.point(DVec3::new(4.0, 0.0, 0.0), 0.0).is_none()); // a vertex
         assert!(tree.point(DVec3::new(1.0, 1.0, 1.0), 0.0).is_some());
         assert!(tree.point(DVec3::new(3.0, 3.0, 0.0), 0.0).is_some()); // coplanar, outside
+    }
+
+    /// The direct sum without a tree agrees with the tree's exact walk (to
+    /// rounding, the order of the sums differing), refuses the same points
+    /// (on a triangle, its vertices and edges), and does not depend on the
+    /// number of threads: over soups larger than one chunk, at lattice
+    /// points in triangles' planes and at random points.
+    #[test]
+    fn direct_soup_sums_equal_the_exact_walk() {
+        let mut tris = sphere_soup(9000, 3);
+        // Axis-aligned triangles through lattice points: centres in their
+        // planes, inside, on an edge, on a vertex and outside.
+        tris.push([[0, 0, 0], [1024, 0, 0], [0, 1024, 0]]);
+        tris.push([[2560, 0, -512], [2560, 1024, -512], [2560, 0, 512]]);
+        let tree = WindingTree::new(&tris);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let mut points = vec![
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(4.0, 0.0, 0.0),
+            DVec3::new(3.0, 3.0, 0.0),
+            DVec3::new(10.0, 1.0, 0.0),
+            DVec3::new(10.0, 5.0, 0.0),
+        ];
+        points.extend((0..60).map(|_| {
+            DVec3::new(
+                rng.random_range(-30..30) as f64,
+                rng.random_range(-30..30) as f64,
+                rng.random_range(-30..30) as f64,
+            ) + DVec3::splat(0.5) * rng.random_range(0..2) as f64
+        }));
+        let one_thread = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        for q in points {
+            let direct = soup_winding(&tris, q);
+            assert_eq!(one_thread.install(|| soup_winding(&tris, q)), direct, "{q}");
+            match (direct, tree.point_exact(q)) {
+                (None, None) => {}
+                (Some(d), Some(e)) => {
+                    assert!((d - e.value).abs() <= 1e-9, "{q}: {d} vs {}", e.value)
+                }
+                (d, e) => panic!("{q}: direct {d:?}, tree {e:?}"),
+            }
+        }
+        assert_eq!(soup_winding(&tris, DVec3::new(1.0, 1.0, 0.0)), None);
     }
 }
