@@ -563,13 +563,19 @@ pub fn solid_interior_in(
             stats.caps_us = t.elapsed().as_micros() as u64;
             // Written in parallel: on large meshes this is tens of MB of
             // fresh pages.
-            let closed: Vec<SurfaceTriangle> = triangles
-                .par_iter()
-                .copied()
-                .chain(caps.par_iter().map(|t| [t[0], t[2], t[1]]))
-                .collect();
-            let closed = in_region_columns(&closed, region);
+            let closed_soup = || -> Vec<SurfaceTriangle> {
+                let closed: Vec<SurfaceTriangle> = triangles
+                    .par_iter()
+                    .copied()
+                    .chain(caps.par_iter().map(|t| [t[0], t[2], t[1]]))
+                    .collect();
+                match in_region_columns(&closed, region) {
+                    Cow::Borrowed(_) => closed,
+                    Cow::Owned(inside) => inside,
+                }
+            };
             if caps.is_empty() {
+                let closed = closed_soup();
                 fill_interior(
                     &closed,
                     dims,
@@ -581,7 +587,10 @@ pub fn solid_interior_in(
                 )
             } else {
                 let t = std::time::Instant::now();
-                let caps_tree = WindingTree::with_rim(&caps, rim);
+                // The closed soup fills the cores the tree's top levels
+                // leave idle.
+                let (closed, caps_tree) =
+                    rayon::join(closed_soup, || WindingTree::with_rim(&caps, rim));
                 stats.trees_us = t.elapsed().as_micros() as u64;
                 let ctx = Classifier {
                     caps: caps_tree,
