@@ -315,16 +315,6 @@ impl Boundary {
         Boundary { edges }
     }
 
-    /// Number of directed edges (with multiplicity).
-    pub fn len(&self) -> usize {
-        self.edges.len()
-    }
-
-    /// Whether the soup is closed (and consistently oriented).
-    pub fn is_empty(&self) -> bool {
-        self.edges.is_empty()
-    }
-
     /// The edges, sorted as [`boundary_edges`] sorts them: `packed_position`
     /// is monotone in the lexicographic order of `[i64; 3]` (x in the high
     /// bits, no clamping below 2^30).

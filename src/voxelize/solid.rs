@@ -370,7 +370,8 @@ pub struct SolidStats {
     /// Wall time (µs) finding the boundary and the caps over it, with the
     /// rim's tree built beside the serial cycle search.
     pub caps_us: u64,
-    /// Wall time (µs) building the caps' tree.
+    /// Wall time (µs) building the caps' tree, with the closed soup written
+    /// beside it.
     pub trees_us: u64,
     /// Wall time (µs) of the region octree (the caps' bounds over boxes).
     pub regions_us: u64,

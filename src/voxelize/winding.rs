@@ -292,14 +292,13 @@ impl WindingTree {
     /// assert!((inside.value.abs() - 1.0).abs() <= inside.error + 1e-9);
     /// ```
     pub fn new(triangles: &[SurfaceTriangle]) -> Self {
-        let one = VOXEL_ONE as f64;
         // The centre-free parts once, moved with their triangle as the
         // levels split: every node then reads its triangles in one piece.
         let mut entries: Vec<(TriangleParts, u32)> = triangles
             .par_iter()
             .enumerate()
             .map(|(i, t)| {
-                let t = t.map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / one);
+                let t = t.map(grid_point);
                 (TriangleParts::new(t), i as u32)
             })
             .collect();
@@ -421,9 +420,7 @@ impl WindingTree {
     /// slower, `f64::INFINITY` sums every triangle exactly with libm's
     /// arctangent); the error bound is rigorous for any `beta`.
     pub fn point(&self, q: DVec3, beta: f64) -> Option<Estimate> {
-        let qf = q.to_array().map(|c| (c * VOXEL_ONE as f64).round() as i64);
-        let exact = (q * VOXEL_ONE as f64).to_array() == qf.map(|c| c as f64);
-        self.walk(q, beta, exact.then_some(qf))
+        self.walk(q, beta, lattice_point(q))
     }
 
     /// The winding number at a point by summing every triangle (no
@@ -639,6 +636,18 @@ pub enum NearNodes {
     Coarse,
 }
 
+/// A fixed-point position ([`VOXEL_ONE`] per voxel) in grid space.
+fn grid_point(p: [i64; 3]) -> DVec3 {
+    DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / VOXEL_ONE as f64
+}
+
+/// `q` in fixed point when it lies exactly on the fixed-point lattice (the
+/// points whose on-triangle test can be exact).
+fn lattice_point(q: DVec3) -> Option<[i64; 3]> {
+    let qf = q.to_array().map(|c| (c * VOXEL_ONE as f64).round() as i64);
+    ((q * VOXEL_ONE as f64).to_array() == qf.map(|c| c as f64)).then_some(qf)
+}
+
 /// The winding number of a fixed-point soup at `q` by summing every
 /// triangle with the exact kernel, as [`WindingTree::point_exact`] does but
 /// without a tree: for a few points over a large soup, where building the
@@ -646,19 +655,18 @@ pub enum NearNodes {
 /// (tested exactly when `q` is on the fixed-point lattice). Summed in
 /// fixed chunks, then in order: the same value on any number of threads.
 pub fn soup_winding(triangles: &[SurfaceTriangle], q: DVec3) -> Option<f64> {
-    let one = VOXEL_ONE as f64;
-    let qf = q.to_array().map(|c| (c * one).round() as i64);
-    let exact = (q * one).to_array() == qf.map(|c| c as f64);
-    let to = |p: [i64; 3]| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / one;
+    let fixed = lattice_point(q);
     let sums: Vec<Option<f64>> = triangles
         .par_chunks(4096)
         .map(|chunk| {
             let mut sum = 0.0;
             for t in chunk {
-                if exact && on_triangle(t, qf) {
+                if let Some(p) = fixed
+                    && on_triangle(t, p)
+                {
                     return None;
                 }
-                let [a, b, c] = t.map(|p| to(p) - q);
+                let [a, b, c] = t.map(|p| grid_point(p) - q);
                 sum += solid_angle(a, b, c) / FOUR_PI;
             }
             Some(sum)
@@ -707,10 +715,10 @@ impl RimTree {
     /// The tree over given rim edges (fixed point), in the order given (the
     /// tree's shape, and so its bounds' last bits, depend on it).
     pub fn from_edges(edges: impl IntoIterator<Item = ([i64; 3], [i64; 3])>) -> Self {
-        let one = VOXEL_ONE as f64;
-        let to = |p: [i64; 3]| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / one;
-        let mut segments: Vec<[DVec3; 2]> =
-            edges.into_iter().map(|(a, b)| [to(a), to(b)]).collect();
+        let mut segments: Vec<[DVec3; 2]> = edges
+            .into_iter()
+            .map(|(a, b)| [grid_point(a), grid_point(b)])
+            .collect();
         let mut nodes = Vec::new();
         if !segments.is_empty() {
             nodes = fresh_nodes(node_count(segments.len()));
