@@ -431,6 +431,30 @@ impl VolumeBricks {
         with_store!(&self.store, v => v[i].value())
     }
 
+    /// The samples of the voxels `start + i·e_axis` for `i < out.len()`
+    /// (all inside the volume), as the renderer reads them: one row of a
+    /// slice, brick by brick.
+    pub(crate) fn read_row(&self, axis: usize, start: IVec3, out: &mut [f32]) {
+        let local = Self::STRIDES[axis] as usize;
+        let mut step_brick = IVec3::ZERO;
+        step_brick[axis] = 1;
+        let brick = (self.brick_index(step_brick) << 9) - 8 * local;
+        with_store!(&self.store, v => {
+            let mut idx = self.index(start);
+            let mut p = (start[axis] & 7) as usize;
+            for o in out.iter_mut() {
+                *o = v[idx].value();
+                p += 1;
+                if p == 8 {
+                    p = 0;
+                    idx += brick + local;
+                } else {
+                    idx += local;
+                }
+            }
+        })
+    }
+
     /// The samples at the storage indices `buf[..].1`, into `out` (as long
     /// as `buf`): one type dispatch for a run of voxels.
     #[inline(always)]

@@ -34,6 +34,7 @@ mod normal;
 mod occupancy;
 mod opacity;
 mod paged;
+pub mod shear_warp;
 mod tiles;
 pub mod volume;
 mod walk;
@@ -49,7 +50,7 @@ pub use occupancy::{BrickFlags, MAX_RENDER_DIM, OccupancyGrid, RenderBricks};
 pub use opacity::{OPACITY_ULPS, corrected_opacity};
 pub use paged::{PagedBrick, PagedOccupancy};
 pub use volume::{
-    EARLY_TERMINATION, RAMP_OPACITY, Sampling, TfPoint, TransferFunction, VolumeMode,
+    EARLY_TERMINATION, RAMP_OPACITY, Sampling, TfPoint, TransferFunction, VolumeMethod, VolumeMode,
     VolumeOptions, VolumeScene, differing_values, render_volume,
 };
 
@@ -316,6 +317,10 @@ pub struct RenderStats {
     pub rays_culled: u64,
     /// Wall time of the frame.
     pub render_ms: f64,
+    /// Whether the frame was rendered by shear-warp
+    /// ([`VolumeMethod::ShearWarp`]; `false` where it was asked for and the
+    /// view has no factorization, so rays were cast).
+    pub shear_warp: bool,
 }
 
 /// How far inside the clip box a pixel's segment starts and ends, in voxels:
@@ -447,9 +452,23 @@ impl RaySetup {
     /// segment inside the clip box (`None`: the ray misses it).
     #[inline]
     pub(crate) fn pixel(&self, x: u32, y: u32) -> (GridRay, Option<Segment>) {
+        let ray = self.ray(x, y);
+        let seg = ray.clip(self.lo, self.hi).and_then(|(t0, t1)| {
+            let q = |t: f64| {
+                let p = (ray.o + ray.d * t).clamp(self.lo, self.hi);
+                [p.x, p.y, p.z].map(to_fixed_in_range)
+            };
+            Segment::from_fixed(q(t0), q(t1)).ok()
+        });
+        (ray, seg)
+    }
+
+    /// The grid-space ray of pixel `(x, y)` (unit world speed).
+    #[inline]
+    pub(crate) fn ray(&self, x: u32, y: u32) -> GridRay {
         let nx = 2.0 * (x as f64 + 0.5) / self.width as f64 - 1.0;
         let ny = 1.0 - 2.0 * (y as f64 + 0.5) / self.height as f64;
-        let ray = if self.ortho {
+        if self.ortho {
             GridRay {
                 o: self.o + self.r * nx + self.u * ny,
                 d: self.f,
@@ -463,15 +482,7 @@ impl RaySetup {
                 o: self.o,
                 d: d / world_len,
             }
-        };
-        let seg = ray.clip(self.lo, self.hi).and_then(|(t0, t1)| {
-            let q = |t: f64| {
-                let p = (ray.o + ray.d * t).clamp(self.lo, self.hi);
-                [p.x, p.y, p.z].map(to_fixed_in_range)
-            };
-            Segment::from_fixed(q(t0), q(t1)).ok()
-        });
-        (ray, seg)
+        }
     }
 
     /// World normal of grid-space direction `n` (a normal transforms with

@@ -278,6 +278,21 @@ pub enum Sampling {
     Trilinear,
 }
 
+/// How a volume frame is computed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum)]
+pub enum VolumeMethod {
+    /// One discrete ray per pixel of the frame's [`RayKind`]: exact (the
+    /// [module docs](self) define every pixel).
+    #[default]
+    Rays,
+    /// Shear-warp (object order, see [`super::shear_warp`]): every slice
+    /// resampled once onto an intermediate image, then warped to the
+    /// frame. Faster, not exact: its error against the 6-ray is measured.
+    /// MIP and compositing; iso-surfaces and perspective eyes inside the
+    /// volume's box cast rays.
+    ShearWarp,
+}
+
 /// One point of a [`TransferFunction`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TfPoint {
@@ -493,6 +508,8 @@ pub struct VolumeOptions {
     pub transfer: TransferFunction,
     /// How visited voxels are sampled.
     pub sampling: Sampling,
+    /// Rays or shear-warp.
+    pub method: VolumeMethod,
 }
 
 impl VolumeOptions {
@@ -511,6 +528,7 @@ impl VolumeOptions {
             window,
             transfer: TransferFunction::ramp(window),
             sampling: Sampling::Nearest,
+            method: VolumeMethod::Rays,
         }
     }
 
@@ -919,7 +937,7 @@ impl ValueTable {
 /// The colour compositing gives sample `s`: the transfer function's, or
 /// the window's grey level where its points carry none.
 #[inline(always)]
-fn sample_color(tf: &TransferFunction, window: (f32, f32), s: f32) -> [f32; 3] {
+pub(super) fn sample_color(tf: &TransferFunction, window: (f32, f32), s: f32) -> [f32; 3] {
     tf.color(s).unwrap_or_else(|| [grey(s, window); 3])
 }
 
@@ -1068,7 +1086,7 @@ impl Accum for Composite<'_> {
 
 /// The window's grey level of `s`.
 #[inline]
-fn grey(s: f32, (lo, hi): (f32, f32)) -> f32 {
+pub(super) fn grey(s: f32, (lo, hi): (f32, f32)) -> f32 {
     ((s - lo) / (hi - lo)).clamp(0.0, 1.0)
 }
 
@@ -1503,6 +1521,17 @@ pub fn render_volume(
     let (w, h) = (opts.width, opts.height);
     check_image(w, h, opts.limit)?;
     vopts.validate()?;
+    if vopts.method == VolumeMethod::ShearWarp
+        && let Some((img, stats)) = super::shear_warp::render(scene, camera, opts, vopts)
+    {
+        return Ok((
+            img,
+            RenderStats {
+                shear_warp: true,
+                ..stats
+            },
+        ));
+    }
     let start = Instant::now();
     let ctx = FrameCtx::new(scene, camera, opts, vopts);
     let tri = vopts.sampling == Sampling::Trilinear;

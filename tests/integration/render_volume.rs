@@ -12,7 +12,7 @@ use voxkit::camera::Camera;
 use voxkit::grid::{MemoryLimit, ScalarVolume, VolumeData, VolumeFrame};
 use voxkit::render::{
     NormalMode, RayKind, RenderImage, RenderOptions, RenderStats, Sampling, TransferFunction,
-    VolumeMode, VolumeOptions, VolumeScene, differing_values, render_volume,
+    VolumeMethod, VolumeMode, VolumeOptions, VolumeScene, differing_values, render_volume,
 };
 
 fn volume(dims: [usize; 3], data: Vec<f32>, frame: VolumeFrame) -> ScalarVolume {
@@ -48,6 +48,7 @@ fn vopts(mode: VolumeMode, window: (f32, f32), sampling: Sampling) -> VolumeOpti
         window,
         transfer: TransferFunction::ramp(window),
         sampling,
+        method: VolumeMethod::Rays,
     }
 }
 
@@ -297,6 +298,7 @@ fn random_modes(rng: &mut ChaCha8Rng, vol: &ScalarVolume) -> Vec<VolumeOptions> 
         } else {
             Sampling::Trilinear
         },
+        method: VolumeMethod::Rays,
     })
     .collect()
 }
@@ -727,6 +729,7 @@ fn golden_images_per_mode() {
                 window,
                 transfer: tf.clone(),
                 sampling,
+                method: VolumeMethod::Rays,
             };
             let mip = render(&s, &cam, &o, &mk(VolumeMode::Mip)).0;
             let comp = render(&s, &cam, &o, &mk(VolumeMode::Composite)).0;
