@@ -278,7 +278,7 @@ def voxkit_available():
     return True, ""
 
 
-def voxkit_configs(case, projections=("perspective",)):
+def voxkit_configs(case, projections=("perspective",), methods=("rays",)):
     out = []
     for proj in projections:
         ortho = proj == "ortho"
@@ -290,7 +290,12 @@ def voxkit_configs(case, projections=("perspective",)):
         else:
             for m in VOLUME_MODES:
                 args = ["--volume", m] + (["--iso", repr(case["iso"])] if m == "iso" else []) + extra
-                out.append(dict(mode=f"{m}{tag}", skip=True, ortho=ortho, args=args))
+                out.append(dict(mode=f"{m}{tag}", peer=m, skip=True, ortho=ortho, args=args))
+            # Shear-warp (object order, approximate: its difference from the 6-ray image is reported).
+            if "shear-warp" in methods:
+                for m in ("mip", "composite"):
+                    out.append(dict(mode=f"{m} shear-warp{tag}", peer=m, skip=True, ortho=ortho,
+                                    args=["--volume", m, "--method", "shear-warp"] + extra))
     return out
 
 
@@ -313,6 +318,8 @@ def main():
                          "(scripts/embree_rays.py, one thread; needs `pip install embreex` in the peer venv)")
     ap.add_argument("--projections", nargs="+", default=["perspective"], choices=["perspective", "ortho"],
                     help="voxkit and Embree views (VTK's script has no orthographic view: n/a there)")
+    ap.add_argument("--methods", nargs="+", default=["rays", "shear-warp"], choices=["rays", "shear-warp"],
+                    help="volume methods: exact rays (always) and shear-warp (with its difference from the 6-ray image)")
     ap.add_argument("--cases", nargs="+", default=None, help="subset of bunny256 bunny512 headsq blobs512")
     ap.add_argument("--python", default=None, help="interpreter for render_vtk.py (default: the peer venv's)")
     ap.add_argument("--peer", default=str(SHARED / "peers" / "render_vtk.py"))
@@ -401,7 +408,7 @@ def main():
     measured = {}  # (case, mode, skip) -> differing_pixels
 
     def run_voxkit(case, rnd):
-        for c in voxkit_configs(case, a.projections):
+        for c in voxkit_configs(case, a.projections, a.methods):
             key = (case["name"], c["mode"], c["skip"])
             png = work / "png" / f"{case['name']}_voxkit_{c['mode'].replace(' ', '')}{'' if c['skip'] else '_noskip'}.png"
             base = [VOXKIT, "render", case["path"], "-o", png, "--size", a.size, "--json", "--force"] + c["args"]
@@ -412,7 +419,9 @@ def main():
                 log(dict(kind="run", tool="voxkit", purpose="measure", case=case["name"], mode=c["mode"],
                          skip=c["skip"], round=rnd, **m))
                 if m["json"] is not None:
-                    measured[key] = m["json"].get("differing_pixels")
+                    d = m["json"].get("difference")
+                    measured[key] = (m["json"].get("differing_pixels") if d is None else
+                                     f"mean {d['mean_levels']:.2f}, p99 {d['p99_levels']}, max {d['max_levels']} levels")
             waited = wait_quiet(a.wait_quiet, a.quiet_share) if a.wait_quiet > 0 else (0.0, None)
             # Warm frames, as VTK's: the median of `reps` renders in one process.
             r = run(base + ["--reps", str(reps)], timeout=a.timeout, cwd=ROOT)
@@ -525,9 +534,9 @@ def main():
     for case in cases:
         vtk_of = {m: vtk_summary(case, m) for m in vtk_modes(case)}
         if have_vk:
-            for c in voxkit_configs(case, a.projections):
+            for c in voxkit_configs(case, a.projections, a.methods):
                 v = vk_summary(case, c)
-                peer_mode = "surface" if case["binary"] else c["mode"]
+                peer_mode = "surface" if case["binary"] else c["peer"]
                 rows.append(dict(case=case["name"], input=case["label"],
                                  mode=f"surface / {c['mode']}" if case["binary"] else c["mode"],
                                  skip="yes" if c["skip"] else "no", voxkit=v,
@@ -565,7 +574,7 @@ def main():
             f"| {r['input']} | {r['mode']} | {r['skip']} | {vms_s} | "
             f"{'–' if not v or v['floor_ms'] is None else format(v['floor_ms'], '.1f')} | "
             f"{'–' if not v or v['over_floor'] is None else format(v['over_floor'], '.1f') + '×'} | "
-            f"{na if diff is None else f'{diff:,}'} | "
+            f"{na if diff is None else (diff if isinstance(diff, str) else f'{diff:,}')} | "
             f"{tms_s} | {f1(t['setup_s'] if t else None, '.2f')} | {ratio} | {f1(v['load_ms'] if v else None, '.1f')} | "
             f"{f1(v['rss'] if v else None, '.0f')} | {f1(t['rss'] if t else None, '.0f')} |")
         log(dict(kind="row", **{k: (str(x) if isinstance(x, Path) else x) for k, x in r.items()}))

@@ -436,21 +436,18 @@ impl VolumeBricks {
     /// slice, brick by brick.
     pub(crate) fn read_row(&self, axis: usize, start: IVec3, out: &mut [f32]) {
         let local = Self::STRIDES[axis] as usize;
-        let mut step_brick = IVec3::ZERO;
-        step_brick[axis] = 1;
-        let brick = (self.brick_index(step_brick) << 9) - 8 * local;
         with_store!(&self.store, v => {
-            let mut idx = self.index(start);
-            let mut p = (start[axis] & 7) as usize;
-            for o in out.iter_mut() {
-                *o = v[idx].value();
-                p += 1;
-                if p == 8 {
-                    p = 0;
-                    idx += brick + local;
-                } else {
-                    idx += local;
+            // Brick by brick: up to 8 samples `local` apart from one base.
+            let (mut pos, mut o) = (start, 0);
+            while o < out.len() {
+                let take = (8 - (pos[axis] & 7) as usize).min(out.len() - o);
+                let base = self.index(pos);
+                let src = &v[base..=base + (take - 1) * local];
+                for (t, x) in out[o..o + take].iter_mut().enumerate() {
+                    *x = src[t * local].value();
                 }
+                o += take;
+                pos[axis] += take as i32;
             }
         })
     }
