@@ -12,8 +12,8 @@ use voxkit::grid::{BrickGrid, GridFrame, MemoryLimit, ScalarVolume, VolumeData, 
 use voxkit::io::zarr::ChunkReader;
 use voxkit::render::{
     GridTransform, NormalMode, OccupancyGrid, PagedOccupancy, PixelWindow, RayKind, RenderBricks,
-    RenderImage, RenderOptions, Sampling, TransferFunction, VolumeMode, VolumeOptions, VolumeScene,
-    occupied_world_box, render_grid_window,
+    RenderImage, RenderOptions, Sampling, TransferFunction, VolumeMethod, VolumeMode,
+    VolumeOptions, VolumeScene, occupied_world_box, render_grid_window,
 };
 
 use crate::grid::{Grid, limit_of};
@@ -382,7 +382,7 @@ fn volume_of(
 /// compositing or an iso-surface; a 0/1 volume without `volume` renders as
 /// a voxel grid, as on the command line. Z up.
 #[pyfunction]
-#[pyo3(signature = (array, spacing, origin, size, eye, target, up, fov, ortho, view, ray, skip, normals, background, max_memory_mib, volume, iso, window, tf, sampling))]
+#[pyo3(signature = (array, spacing, origin, size, eye, target, up, fov, ortho, view, ray, skip, normals, background, max_memory_mib, volume, iso, window, tf, sampling, method))]
 #[allow(clippy::too_many_arguments)]
 pub fn render_volume<'py>(
     py: Python<'py>,
@@ -406,6 +406,7 @@ pub fn render_volume<'py>(
     window: Option<(f32, f32)>,
     tf: Option<&str>,
     sampling: &str,
+    method: &str,
 ) -> PyResult<Image<'py>> {
     let v = view_of(
         size,
@@ -422,6 +423,7 @@ pub fn render_volume<'py>(
         max_memory_mib,
     )?;
     let sampling = named::<Sampling>("sampling", sampling)?;
+    let method = named::<VolumeMethod>("method", method)?;
     let mode = match volume {
         None | Some("mip") => None,
         Some("composite") => Some(VolumeMode::Composite),
@@ -469,6 +471,7 @@ pub fn render_volume<'py>(
             vopts.transfer = TransferFunction::parse(tf)?;
         }
         vopts.sampling = sampling;
+        vopts.method = method;
         vopts.mode = match mode {
             None => VolumeMode::Mip,
             Some(VolumeMode::Iso(_)) => {

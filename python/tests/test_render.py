@@ -47,6 +47,14 @@ def test_read_volume_and_render_it():
     for mode in ["mip", "composite", "iso"]:
         rgb, depth = voxkit.render((arr, spacing, origin), size=(48, 40), volume=mode)
         assert rgb.shape == (40, 48, 3) and rgb.any()
+    # Shear-warp: close to the rays' image (not equal), and the same image
+    # as the command line's.
+    rays = voxkit.render((arr, spacing, origin), size=(64, 64), volume="composite")[0]
+    sw = voxkit.render((arr, spacing, origin), size=(64, 64), volume="composite", method="shear-warp")[0]
+    assert not np.array_equal(rays, sw)
+    assert np.abs(rays.astype(int) - sw.astype(int)).mean() < 4.0
+    with pytest.raises(ValueError, match="method"):
+        voxkit.render((arr, spacing, origin), size=(8, 8), method="splat")
     # The same samples in C order render the same image.
     c = np.ascontiguousarray(arr)
     assert np.array_equal(

@@ -501,6 +501,7 @@ def render(
     window: Optional[Tuple[float, float]] = None,
     tf: Optional[str] = None,
     sampling: str = "nearest",
+    method: str = "rays",
     spacing: Sequence[float] = (1.0, 1.0, 1.0),
     origin: Sequence[float] = (0.0, 0.0, 0.0),
     max_memory_mib: int = 4096,
@@ -523,7 +524,10 @@ def render(
     (``front back left right top bottom iso``), ``ortho``. ``ray``: ``"6"``,
     ``"26"``, ``"adaptive"``, ``"aw"``. Volumes: ``window=(lo, hi)``,
     ``iso``, ``tf`` (``"v:opacity[:#rrggbb],..."``), ``sampling``
-    (``"nearest"``, ``"trilinear"``).
+    (``"nearest"``, ``"trilinear"``), ``method`` (``"rays"``: one exact
+    discrete ray per pixel; ``"shear-warp"``: object order, faster, not
+    exact; ``voxkit render --method shear-warp --measure`` reports its
+    difference from the 6-ray image; iso-surfaces cast rays).
 
     Returns ``(rgb (H, W, 3) uint8, depth (H, W) float32)``; depth is the
     world distance along the ray to the hit, ``inf`` where nothing was hit.
@@ -577,4 +581,5 @@ def render(
         win,
         tf,
         sampling,
+        method,
     )
