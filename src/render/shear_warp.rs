@@ -834,6 +834,35 @@ mod tests {
         (sw.0, exact.0, sw.1)
     }
 
+    /// A camera looking at `c` from a random direction at a random
+    /// distance: orthographic (`height`) or perspective (`fov`).
+    fn random_camera(
+        rng: &mut StdRng,
+        c: DVec3,
+        dist: std::ops::Range<f64>,
+        ortho: bool,
+        height: f64,
+        fov: f64,
+    ) -> Camera {
+        let dir = DVec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        )
+        .normalize();
+        let eye = c + dir * rng.random_range(dist);
+        let up = if dir.z.abs() > 0.9 {
+            DVec3::X
+        } else {
+            DVec3::Z
+        };
+        if ortho {
+            Camera::orthographic(eye, c, up, height)
+        } else {
+            Camera::perspective(eye, c, up, fov)
+        }
+    }
+
     fn largest_difference(a: &RenderImage, b: &RenderImage) -> f32 {
         a.color
             .iter()
@@ -1035,23 +1064,7 @@ mod tests {
         let window = (1.0, 9.5);
         let c = DVec3::new(10.0, 12.5, 8.0);
         for round in 0..24 {
-            let dir = DVec3::new(
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-            )
-            .normalize();
-            let eye = c + dir * rng.random_range(40.0..90.0);
-            let up = if dir.z.abs() > 0.9 {
-                DVec3::X
-            } else {
-                DVec3::Z
-            };
-            let cam = if round % 2 == 0 {
-                Camera::orthographic(eye, c, up, 45.0)
-            } else {
-                Camera::perspective(eye, c, up, 40.0)
-            };
+            let cam = random_camera(&mut rng, c, 40.0..90.0, round % 2 == 0, 45.0, 40.0);
             let ro = RenderOptions {
                 width: 48,
                 height: 40,
@@ -1091,23 +1104,7 @@ mod tests {
         let window = (0.0, 200.0);
         let mut rng = StdRng::seed_from_u64(8);
         for round in 0..16 {
-            let dir = DVec3::new(
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-            )
-            .normalize();
-            let eye = c + dir * rng.random_range(60.0..120.0);
-            let up = if dir.z.abs() > 0.9 {
-                DVec3::X
-            } else {
-                DVec3::Z
-            };
-            let cam = if round % 2 == 0 {
-                Camera::orthographic(eye, c, up, 48.0)
-            } else {
-                Camera::perspective(eye, c, up, 35.0)
-            };
+            let cam = random_camera(&mut rng, c, 60.0..120.0, round % 2 == 0, 48.0, 35.0);
             let ro = RenderOptions {
                 width: 64,
                 height: 64,
