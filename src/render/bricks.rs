@@ -452,6 +452,62 @@ impl VolumeBricks {
         })
     }
 
+    /// The samples of the voxels `v` in the box `lo..=hi` (inside the
+    /// volume) into `out[Σₖ (v[k] − lo[k])·stride[k]]`, read brick by
+    /// brick in storage order: each brick's samples are one contiguous
+    /// run, so the block streams from memory where rows of it would not.
+    ///
+    /// # Panics
+    /// If an index lies outside `out`.
+    pub(crate) fn read_block(&self, lo: IVec3, hi: IVec3, stride: [usize; 3], out: &mut [f32]) {
+        debug_assert!(self.contains(lo) && self.contains(hi) && lo.cmple(hi).all());
+        let (blo, bhi): (IVec3, IVec3) = (lo >> 3, hi >> 3);
+        // Per axis and brick coordinate: the local range and the output
+        // offset of its first voxel.
+        let span = |k: usize, bk: i32| {
+            let first = (bk * 8).max(lo[k]);
+            let last = (bk * 8 + 7).min(hi[k]);
+            (
+                (first - bk * 8) as usize,
+                (last - bk * 8) as usize,
+                (first - lo[k]) as usize * stride[k],
+            )
+        };
+        with_store!(&self.store, v => {
+            for bz in blo.z..=bhi.z {
+                let (z0, z1, oz) = span(2, bz);
+                for by in blo.y..=bhi.y {
+                    let (y0, y1, oy) = span(1, by);
+                    for bx in blo.x..=bhi.x {
+                        let (x0, x1, ox) = span(0, bx);
+                        let brick = &v[self.brick_index(IVec3::new(bx, by, bz)) << 9..][..512];
+                        for z in z0..=z1 {
+                            for y in y0..=y1 {
+                                let src = &brick[64 * z + 8 * y..][x0..=x1];
+                                let d = oz + (z - z0) * stride[2] + oy + (y - y0) * stride[1] + ox;
+                                if stride[0] == 1 && src.len() == 8 {
+                                    // A whole brick row: a fixed-size copy the
+                                    // compiler keeps inline (a `memcpy` call
+                                    // per 8 samples costs more than the copy).
+                                    let row: [f32; 8] = std::array::from_fn(|t| src[t].value());
+                                    out[d..d + 8].copy_from_slice(&row);
+                                } else if stride[0] == 1 {
+                                    for (o, x) in out[d..d + src.len()].iter_mut().zip(src) {
+                                        *o = x.value();
+                                    }
+                                } else {
+                                    for (t, x) in src.iter().enumerate() {
+                                        out[d + t * stride[0]] = x.value();
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        })
+    }
+
     /// The samples at the storage indices `buf[..].1`, into `out` (as long
     /// as `buf`): one type dispatch for a run of voxels.
     #[inline(always)]
