@@ -59,6 +59,7 @@ use super::{
     VolumeScene,
 };
 use crate::camera::Camera;
+use crate::error::Result;
 
 /// Entries of the transfer function's table for compositing.
 pub const TF_TABLE: usize = 4096;
@@ -444,14 +445,29 @@ impl Accumulate for CompositeBand<'_> {
 }
 
 /// Renders `scene` by shear-warp (see the [module docs](self)); `None` if
-/// the view has no factorization or the mode is an iso-surface.
+/// the view has no factorization or the mode is an iso-surface, an error
+/// if its buffers would exceed `opts.limit`.
 pub(crate) fn render(
     scene: &VolumeScene,
     camera: &Camera,
     opts: &RenderOptions,
     vopts: &VolumeOptions,
-) -> Option<(RenderImage, RenderStats)> {
+) -> Result<Option<(RenderImage, RenderStats)>> {
     render_with(scene, camera, opts, vopts, SLAB_CAP)
+}
+
+/// The bytes shear-warp holds beside the volume and the image: the
+/// intermediate image, the per-slice column tables and each thread's rows
+/// and slab.
+fn working_bytes(f: &Factor, composite: bool, threads: usize, slab_cap: usize) -> u128 {
+    let (w, h, n) = (f.w as u128, f.h as u128, f.n as u128);
+    // MIP: maximum and slice; compositing: colour and opacity, slice,
+    // stretch, seen (and a flag per chunk).
+    let per_pixel = if composite { 24 } else { 6 };
+    let row = f.dims[f.a] as u128 + 1;
+    let slab = (slab_cap as u128).min(8 * f.dims[f.b] as u128 * row);
+    let per_thread = 4 * (3 * w + 2 * row + slab);
+    w * h * per_pixel + n * w * 8 + threads as u128 * per_thread
 }
 
 /// [`render`], reading a layer's rows brick by brick while they fit in
@@ -462,9 +478,9 @@ fn render_with(
     opts: &RenderOptions,
     vopts: &VolumeOptions,
     slab_cap: usize,
-) -> Option<(RenderImage, RenderStats)> {
+) -> Result<Option<(RenderImage, RenderStats)>> {
     if matches!(vopts.mode, VolumeMode::Iso(_)) {
-        return None;
+        return Ok(None);
     }
     let start = Instant::now();
     let dims = scene.dims().map(|d| d as i32);
@@ -476,12 +492,20 @@ fn render_with(
         opts.width,
         opts.height,
     );
-    let f = Factor::new(&setup, dims)?;
+    let Some(f) = Factor::new(&setup, dims) else {
+        return Ok(None);
+    };
     if f.n > u16::MAX as i32 - 1 {
-        return None;
+        return Ok(None);
     }
-    let table =
-        (vopts.mode == VolumeMode::Composite).then(|| TfTable::new(&vopts.transfer, vopts.window));
+    let composite = vopts.mode == VolumeMode::Composite;
+    let threads = rayon::current_num_threads();
+    opts.limit.check(
+        "shear-warp intermediate image",
+        working_bytes(&f, composite, threads, slab_cap),
+        1,
+    )?;
+    let table = composite.then(|| TfTable::new(&vopts.transfer, vopts.window));
     let columns: Vec<Columns> = (0..f.n)
         .into_par_iter()
         .map(|q| Columns::of(&f, q))
@@ -523,9 +547,10 @@ fn render_with(
         hits,
         voxels_visited: samples,
         render_ms: start.elapsed().as_secs_f64() * 1e3,
+        shear_warp: true,
         ..RenderStats::default()
     };
-    Some((img, stats))
+    Ok(Some((img, stats)))
 }
 
 /// The intermediate image in bands of [`BAND`] rows.
@@ -1086,11 +1111,11 @@ mod tests {
             let cam = random_camera(&mut rng, c, 45.0..160.0, t % 2 == 0, 70.0, 50.0);
             for mode in [VolumeMode::Mip, VolumeMode::Composite] {
                 let o = opts(VolumeMethod::ShearWarp, mode, (0.2, 0.9));
-                let Some((rows, _)) = render_with(&s, &cam, &ro, &o, 0) else {
+                let Some((rows, _)) = render_with(&s, &cam, &ro, &o, 0).unwrap() else {
                     continue;
                 };
                 for cap in [3_000, SLAB_CAP] {
-                    let (img, _) = render_with(&s, &cam, &ro, &o, cap).unwrap();
+                    let (img, _) = render_with(&s, &cam, &ro, &o, cap).unwrap().unwrap();
                     assert_eq!(img, rows, "{cam:?} {mode:?} cap {cap}");
                 }
                 slabbed += 1;
@@ -1362,6 +1387,48 @@ mod tests {
             };
             let one = run(1);
             assert_eq!(one, run(3), "{mode:?}");
+        }
+    }
+
+    /// The intermediate image, column tables and slabs are charged to the
+    /// memory limit before they are allocated: a limit the image's own
+    /// buffers fit under, but not shear-warp's, is one clear error.
+    #[test]
+    fn working_buffers_are_capped() {
+        let s = scene([120, 110, 8], |x, y, z| ((x * 7 + y * 3 + z) % 11) as f32);
+        let cam = Camera::orthographic(
+            DVec3::new(60.0, 55.0, 100.0),
+            DVec3::new(60.0, 55.0, 4.0),
+            DVec3::Y,
+            130.0,
+        );
+        let small = RenderOptions {
+            width: 64,
+            height: 64,
+            limit: MemoryLimit::new(200_000),
+            ..RenderOptions::default()
+        };
+        for mode in [VolumeMode::Mip, VolumeMode::Composite] {
+            let rays = render_volume(
+                &s,
+                &cam,
+                &small,
+                &opts(VolumeMethod::Rays, mode, (0.0, 10.0)),
+            );
+            assert!(rays.is_ok(), "{mode:?}: the image alone fits");
+            let sw = opts(VolumeMethod::ShearWarp, mode, (0.0, 10.0));
+            let err = render_volume(&s, &cam, &small, &sw)
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains("shear-warp"), "{mode:?}: {err}");
+            let roomy = RenderOptions {
+                limit: MemoryLimit::new(4_000_000),
+                ..small
+            };
+            assert!(
+                render_volume(&s, &cam, &roomy, &sw).unwrap().1.shear_warp,
+                "{mode:?}"
+            );
         }
     }
 

@@ -1522,15 +1522,9 @@ pub fn render_volume(
     check_image(w, h, opts.limit)?;
     vopts.validate()?;
     if vopts.method == VolumeMethod::ShearWarp
-        && let Some((img, stats)) = super::shear_warp::render(scene, camera, opts, vopts)
+        && let Some(frame) = super::shear_warp::render(scene, camera, opts, vopts)?
     {
-        return Ok((
-            img,
-            RenderStats {
-                shear_warp: true,
-                ..stats
-            },
-        ));
+        return Ok(frame);
     }
     let start = Instant::now();
     let ctx = FrameCtx::new(scene, camera, opts, vopts);
