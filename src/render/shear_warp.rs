@@ -308,9 +308,11 @@ impl Columns {
 
 /// What the intermediate image holds per pixel.
 trait Accumulate: Send {
-    /// Adds slice `q`'s samples `vals` at columns `lo..lo + vals.len()` of
-    /// intermediate row `row`; returns the samples taken.
-    fn add(&mut self, row: usize, lo: usize, vals: &[f32], q: u16) -> u64;
+    /// Adds slice `q`'s samples at columns `lo..lo + v0.len()` of
+    /// intermediate row `row`: `v0 + fb·(v1 − v0)`, the bilinear's second
+    /// step between two resampled slice rows (taken here, so no sample
+    /// is stored on its way); returns the samples taken.
+    fn add(&mut self, row: usize, lo: usize, v: [&[f32]; 2], fb: f32, q: u16) -> u64;
     /// Whether a sample at columns `lo..hi` of row `row` may still change
     /// a pixel.
     fn live(&self, _row: usize, _lo: usize, _hi: usize) -> bool {
@@ -331,18 +333,16 @@ struct MipBand {
 
 impl Accumulate for MipBand {
     #[inline]
-    fn add(&mut self, row: usize, lo: usize, vals: &[f32], q: u16) -> u64 {
-        let o = row * self.w + lo;
-        let (m, qs) = (
-            &mut self.m[o..o + vals.len()],
-            &mut self.q[o..o + vals.len()],
-        );
-        for ((m, qq), &v) in m.iter_mut().zip(qs.iter_mut()).zip(vals) {
+    fn add(&mut self, row: usize, lo: usize, [v0, v1]: [&[f32]; 2], fb: f32, q: u16) -> u64 {
+        let (o, n) = (row * self.w + lo, v0.len());
+        let (m, qs) = (&mut self.m[o..o + n], &mut self.q[o..o + n]);
+        for (((m, qq), &x0), &x1) in m.iter_mut().zip(qs.iter_mut()).zip(v0).zip(&v1[..n]) {
+            let v = x0 + fb * (x1 - x0);
             let up = v > *m;
             *m = if up { v } else { *m };
             *qq = if up { q } else { *qq };
         }
-        vals.len() as u64
+        n as u64
     }
 
     /// A MIP pixel is covered once it holds a sample (`m > −∞`; a pixel
@@ -414,16 +414,21 @@ impl CompositeBand<'_> {
 
 impl Accumulate for CompositeBand<'_> {
     #[inline]
-    fn add(&mut self, row: usize, lo: usize, vals: &[f32], q: u16) -> u64 {
+    fn add(&mut self, row: usize, lo: usize, [v0, v1]: [&[f32]; 2], fb: f32, q: u16) -> u64 {
         let chunks = self.w.div_ceil(CHUNK);
-        let (hi, mut n) = (lo + vals.len(), 0);
+        let (hi, mut n) = (lo + v0.len(), 0);
+        let mut vals = [0f32; CHUNK];
         for c in lo / CHUNK..hi.div_ceil(CHUNK) {
             if self.done[row * chunks + c] {
                 continue;
             }
             let (c0, c1) = (c * CHUNK, ((c + 1) * CHUNK).min(self.w));
             let (x0, x1) = (c0.max(lo), c1.min(hi));
-            self.blend(row * self.w + x0, &vals[x0 - lo..x1 - lo], q);
+            let vals = &mut vals[..x1 - x0];
+            for ((v, &a), &b) in vals.iter_mut().zip(&v0[x0 - lo..]).zip(&v1[x0 - lo..]) {
+                *v = a + fb * (b - a);
+            }
+            self.blend(row * self.w + x0, vals, q);
             n += (x1 - x0) as u64;
             let o = row * self.w;
             self.done[row * chunks + c] = self.rgba[3][o + c0..o + c1]
@@ -466,7 +471,7 @@ fn working_bytes(f: &Factor, composite: bool, threads: usize, slab_cap: usize) -
     let per_pixel = if composite { 24 } else { 6 };
     let row = f.dims[f.a] as u128 + 1;
     let slab = (slab_cap as u128).min(8 * f.dims[f.b] as u128 * row);
-    let per_thread = 4 * (3 * w + 2 * row + slab);
+    let per_thread = 4 * (2 * w + 2 * row + slab);
     w * h * per_pixel + n * w * 8 + threads as u128 * per_thread
 }
 
@@ -654,7 +659,6 @@ fn shear<A: Accumulate>(
             max: 0.0,
         },
     ];
-    let mut out = vec![0f32; f.w];
     let mut samples = 0;
     for q in 0..f.n {
         let k = f.front + q * f.step;
@@ -728,15 +732,8 @@ fn shear<A: Accumulate>(
                 continue;
             }
             let (h0, h1) = (&held[0].vals, &held[1].vals);
-            let o = &mut out[cols.lo..cols.hi];
-            for ((o, &x0), &x1) in o
-                .iter_mut()
-                .zip(&h0[cols.lo..cols.hi])
-                .zip(&h1[cols.lo..cols.hi])
-            {
-                *o = x0 + fb * (x1 - x0);
-            }
-            samples += acc.add(r, cols.lo, o, q as u16);
+            let v = [&h0[cols.lo..cols.hi], &h1[cols.lo..cols.hi]];
+            samples += acc.add(r, cols.lo, v, fb, q as u16);
         }
     }
     samples
