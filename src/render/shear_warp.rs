@@ -332,7 +332,7 @@ struct MipBand {
 }
 
 impl Accumulate for MipBand {
-    #[inline]
+    #[inline(always)]
     fn add(&mut self, row: usize, lo: usize, [v0, v1]: [&[f32]; 2], fb: f32, q: u16) -> u64 {
         let (o, n) = (row * self.w + lo, v0.len());
         let (m, qs) = (&mut self.m[o..o + n], &mut self.q[o..o + n]);
@@ -374,7 +374,7 @@ impl CompositeBand<'_> {
     /// Front-to-back over the pixels `o..o + vals.len()` (at most a
     /// [`CHUNK`]; lane by lane: every pixel's chain is its own; a pixel past
     /// [`EARLY_TERMINATION`] takes `α = 0`, which adds exactly nothing).
-    #[inline]
+    #[inline(always)]
     fn blend(&mut self, o: usize, vals: &[f32], q: u16) {
         let n = vals.len().min(CHUNK);
         let t = self.table;
@@ -413,7 +413,7 @@ impl CompositeBand<'_> {
 }
 
 impl Accumulate for CompositeBand<'_> {
-    #[inline]
+    #[inline(always)]
     fn add(&mut self, row: usize, lo: usize, [v0, v1]: [&[f32]; 2], fb: f32, q: u16) -> u64 {
         let chunks = self.w.div_ceil(CHUNK);
         let (hi, mut n) = (lo + v0.len(), 0);
@@ -458,7 +458,21 @@ pub(crate) fn render(
     opts: &RenderOptions,
     vopts: &VolumeOptions,
 ) -> Result<Option<(RenderImage, RenderStats)>> {
-    render_with(scene, camera, opts, vopts, SLAB_CAP)
+    let tuning = Tuning {
+        slab_cap: SLAB_CAP,
+        #[cfg(target_arch = "x86_64")]
+        avx2: std::arch::is_x86_feature_detected!("avx2"),
+    };
+    render_with(scene, camera, opts, vopts, tuning)
+}
+
+/// How the shear runs (never what it computes): the slab cap in floats,
+/// and whether the CPU's AVX2 registers may be used.
+#[derive(Clone, Copy, Debug)]
+struct Tuning {
+    slab_cap: usize,
+    #[cfg(target_arch = "x86_64")]
+    avx2: bool,
 }
 
 /// The bytes shear-warp holds beside the volume and the image: the
@@ -475,15 +489,15 @@ fn working_bytes(f: &Factor, composite: bool, threads: usize, slab_cap: usize) -
     w * h * per_pixel + n * w * 8 + threads as u128 * per_thread
 }
 
-/// [`render`], reading a layer's rows brick by brick while they fit in
-/// `slab_cap` floats.
+/// [`render`] as `tuning` says.
 fn render_with(
     scene: &VolumeScene,
     camera: &Camera,
     opts: &RenderOptions,
     vopts: &VolumeOptions,
-    slab_cap: usize,
+    tuning: Tuning,
 ) -> Result<Option<(RenderImage, RenderStats)>> {
+    let slab_cap = tuning.slab_cap;
     if matches!(vopts.mode, VolumeMode::Iso(_)) {
         return Ok(None);
     }
@@ -521,7 +535,7 @@ fn render_with(
             samples += m
                 .par_iter_mut()
                 .enumerate()
-                .map(|(band, acc)| shear(scene, &f, &columns, band * BAND, None, slab_cap, acc))
+                .map(|(band, acc)| shear_as(tuning, scene, &f, &columns, band * BAND, None, acc))
                 .sum::<u64>();
         }
         Intermediate::Composite(c) => {
@@ -533,15 +547,8 @@ fn render_with(
                 .enumerate()
                 .map(|(band, acc)| {
                     fill_stretches(scene, &f, band * BAND, y_ortho, acc);
-                    shear(
-                        scene,
-                        &f,
-                        &columns,
-                        band * BAND,
-                        table.as_ref(),
-                        slab_cap,
-                        acc,
-                    )
+                    let table = table.as_ref();
+                    shear_as(tuning, scene, &f, &columns, band * BAND, table, acc)
                 })
                 .sum::<u64>();
         }
@@ -621,6 +628,44 @@ fn fill_stretches(
 
 /// Takes every slice's samples for the intermediate rows `j0..` of `acc`,
 /// front to back; returns the samples taken.
+fn shear_as<A: Accumulate>(
+    tuning: Tuning,
+    scene: &VolumeScene,
+    f: &Factor,
+    columns: &[Columns],
+    j0: usize,
+    table: Option<&TfTable>,
+    acc: &mut A,
+) -> u64 {
+    let cap = tuning.slab_cap;
+    #[cfg(target_arch = "x86_64")]
+    if tuning.avx2 {
+        // SAFETY: the CPU runs AVX2 (`Tuning::avx2` is set only where
+        // detected); the code is the portable `shear`, in wider registers.
+        return unsafe { shear_avx2(scene, f, columns, j0, table, cap, acc) };
+    }
+    shear(scene, f, columns, j0, table, cap, acc)
+}
+
+/// [`shear`] compiled for AVX2: the same operations in the same order, so
+/// the same samples bit for bit (no fused multiply-adds: Rust never
+/// contracts `a·b + c`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn shear_avx2<A: Accumulate>(
+    scene: &VolumeScene,
+    f: &Factor,
+    columns: &[Columns],
+    j0: usize,
+    table: Option<&TfTable>,
+    slab_cap: usize,
+    acc: &mut A,
+) -> u64 {
+    shear(scene, f, columns, j0, table, slab_cap, acc)
+}
+
+/// The body of [`shear_as`], inlined into each of its compilations.
+#[inline(always)]
 fn shear<A: Accumulate>(
     scene: &VolumeScene,
     f: &Factor,
@@ -1086,11 +1131,19 @@ mod tests {
         }
     }
 
-    /// Reading a layer's rows brick by brick (slabs) or row by row gives
-    /// the same image, bit for bit, whatever fits under the cap: every
-    /// principal axis, both directions, near and far eyes.
+    /// Reading a layer's rows brick by brick (slabs) or row by row, in
+    /// portable or AVX2 registers, gives the same image, bit for bit,
+    /// whatever fits under the cap: every principal axis, both directions,
+    /// near and far eyes.
     #[test]
-    fn slabs_read_what_rows_read() {
+    fn tunings_give_the_same_image() {
+        #[cfg(target_arch = "x86_64")]
+        let wide = std::arch::is_x86_feature_detected!("avx2");
+        let tuning = |slab_cap: usize, _avx2: bool| Tuning {
+            slab_cap,
+            #[cfg(target_arch = "x86_64")]
+            avx2: _avx2 && wide,
+        };
         let dims = [37usize, 29, 45];
         let mut rng = StdRng::seed_from_u64(17);
         let vals: Vec<f32> = (0..37 * 29 * 45)
@@ -1108,12 +1161,19 @@ mod tests {
             let cam = random_camera(&mut rng, c, 45.0..160.0, t % 2 == 0, 70.0, 50.0);
             for mode in [VolumeMode::Mip, VolumeMode::Composite] {
                 let o = opts(VolumeMethod::ShearWarp, mode, (0.2, 0.9));
-                let Some((rows, _)) = render_with(&s, &cam, &ro, &o, 0).unwrap() else {
+                let Some((rows, _)) = render_with(&s, &cam, &ro, &o, tuning(0, false)).unwrap()
+                else {
                     continue;
                 };
-                for cap in [3_000, SLAB_CAP] {
-                    let (img, _) = render_with(&s, &cam, &ro, &o, cap).unwrap().unwrap();
-                    assert_eq!(img, rows, "{cam:?} {mode:?} cap {cap}");
+                for (cap, avx2) in [
+                    (3_000, false),
+                    (SLAB_CAP, false),
+                    (0, true),
+                    (SLAB_CAP, true),
+                ] {
+                    let t = tuning(cap, avx2);
+                    let (img, _) = render_with(&s, &cam, &ro, &o, t).unwrap().unwrap();
+                    assert_eq!(img, rows, "{cam:?} {mode:?} {t:?}");
                 }
                 slabbed += 1;
             }
