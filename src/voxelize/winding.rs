@@ -273,8 +273,10 @@ struct Node {
 #[derive(Clone, Debug)]
 pub struct WindingTree {
     nodes: Vec<Node>,
+    /// The triangles in the tree's order, in voxels: exactly the
+    /// fixed-point corners over [`VOXEL_ONE`] (a power of two), so that
+    /// [`fixed_corners`] recovers them.
     tris: Vec<[DVec3; 3]>,
-    fixed: Vec<SurfaceTriangle>,
     /// Built on first use: only the bounds need it.
     rim: std::sync::OnceLock<RimTree>,
 }
@@ -292,38 +294,25 @@ impl WindingTree {
     /// assert!((inside.value.abs() - 1.0).abs() <= inside.error + 1e-9);
     /// ```
     pub fn new(triangles: &[SurfaceTriangle]) -> Self {
-        // The centre-free parts once, moved with their triangle as the
-        // levels split: every node then reads its triangles in one piece.
-        let mut entries: Vec<(TriangleParts, u32)> = triangles
+        // Large nodes are split on their triangles' centroids alone (32
+        // bytes a triangle, not the 136 of the parts a multipole needs) and
+        // take their multipoles from their children's; each subtree of at
+        // most `DIRECT_NODE` triangles is built from its triangles' parts,
+        // computed once into a buffer that stays in cache.
+        let mut keys: Vec<(DVec3, u32)> = triangles
             .par_iter()
             .enumerate()
-            .map(|(i, t)| {
-                let t = t.map(grid_point);
-                (TriangleParts::new(t), i as u32)
-            })
+            .map(|(i, t)| (centroid(&t.map(grid_point)), i as u32))
             .collect();
-        let mut nodes = Vec::new();
+        let (mut nodes, mut tris) = (Vec::new(), Vec::new());
         if !triangles.is_empty() {
             nodes = fresh_nodes(node_count(triangles.len()));
-            build_median(
-                &mut nodes,
-                0,
-                &mut entries,
-                0,
-                &triangle_node,
-                &|e, axis| e.0.centroid()[axis],
-                &|n: &mut Node, l, r| (n.left, n.right) = (l, r),
-            );
+            tris = fresh_nodes(triangles.len());
+            build_large(&mut nodes, 0, &mut keys, &mut tris, 0, triangles);
         }
-        let tris = entries.par_iter().map(|e| e.0.corners).collect();
-        let fixed = entries
-            .par_iter()
-            .map(|e| triangles[e.1 as usize])
-            .collect();
         WindingTree {
             nodes,
             tris,
-            fixed,
             rim: std::sync::OnceLock::new(),
         }
     }
@@ -381,7 +370,10 @@ impl WindingTree {
     }
 
     fn rim(&self) -> &RimTree {
-        self.rim.get_or_init(|| RimTree::new(&self.fixed))
+        self.rim.get_or_init(|| {
+            let fixed: Vec<SurfaceTriangle> = self.tris.iter().map(fixed_corners).collect();
+            RimTree::new(&fixed)
+        })
     }
 
     /// Whether some triangle may meet the closed box `[lo, hi]` (separating
@@ -459,7 +451,7 @@ impl WindingTree {
             for i in n.start as usize..n.end as usize {
                 let t = &self.tris[i];
                 if let Some(p) = fixed_point
-                    && on_triangle(&self.fixed[i], p)
+                    && on_triangle(&fixed_corners(t), p)
                 {
                     return None;
                 }
@@ -639,6 +631,19 @@ pub enum NearNodes {
 /// A fixed-point position ([`VOXEL_ONE`] per voxel) in grid space.
 fn grid_point(p: [i64; 3]) -> DVec3 {
     DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / VOXEL_ONE as f64
+}
+
+/// The fixed-point corners of a triangle stored as [`grid_point`]s: exact,
+/// the conversion being a division by a power of two of integers below
+/// 2^53 ([`crate::voxelize::surface`] caps the coordinates far below).
+fn fixed_corners(t: &[DVec3; 3]) -> SurfaceTriangle {
+    t.map(|p| p.to_array().map(|c| (c * VOXEL_ONE as f64) as i64))
+}
+
+/// A triangle's centroid, the key its tree splits on (the same expression
+/// as [`TriangleParts::centroid`]).
+fn centroid(t: &[DVec3; 3]) -> DVec3 {
+    (t[0] + t[1] + t[2]) / 3.0
 }
 
 /// `q` in fixed point when it lies exactly on the fixed-point lattice (the
@@ -842,6 +847,90 @@ fn build_median<T: Send, N: Send>(
         }
         link(head, l, r);
     }
+}
+
+/// Subtrees over at most this many triangles are built from their
+/// triangles' parts (every node's multipole summed over its triangles);
+/// larger nodes merge their children's ([`Multipole::merge`]).
+const DIRECT_NODE: usize = 256;
+
+/// Builds the subtree of the triangle tree over `keys` (centroid and index
+/// into `triangles`; the triangles `start..` of the final order) into
+/// `nodes` (its [`node_count`] nodes in preorder, the first being `id`),
+/// writing its triangles in their final order into `out`. Above
+/// [`DIRECT_NODE`] triangles a node is split at the median centroid along
+/// the longest axis of its centroids' box, its children are built (in
+/// parallel when large), and its multipole and box are merged from theirs.
+fn build_large(
+    nodes: &mut [Node],
+    id: u32,
+    keys: &mut [(DVec3, u32)],
+    out: &mut [[DVec3; 3]],
+    start: usize,
+    triangles: &[SurfaceTriangle],
+) {
+    debug_assert_eq!(nodes.len(), node_count(keys.len()));
+    if keys.len() <= DIRECT_NODE {
+        let mut entries: Vec<(TriangleParts, u32)> = keys
+            .iter()
+            .map(|&(_, i)| (TriangleParts::new(triangles[i as usize].map(grid_point)), i))
+            .collect();
+        build_median(
+            nodes,
+            id,
+            &mut entries,
+            start,
+            &triangle_node,
+            &|e, axis| e.0.centroid()[axis],
+            &|n: &mut Node, l, r| (n.left, n.right) = (l, r),
+        );
+        for (o, e) in out.iter_mut().zip(&entries) {
+            *o = e.0.corners;
+        }
+        return;
+    }
+    let (lo, hi) = keys.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(l, h), k| (l.min(k.0), h.max(k.0)),
+    );
+    let axis = longest_axis(hi - lo);
+    let n = keys.len();
+    let mid = n / 2;
+    keys.select_nth_unstable_by(mid, |a, b| a.0[axis].total_cmp(&b.0[axis]));
+    let (head, rest) = nodes.split_first_mut().expect("a subtree has a node");
+    let (left_nodes, right_nodes) = rest.split_at_mut(node_count(mid));
+    let (l, r) = (id + 1, id + 1 + left_nodes.len() as u32);
+    let (left_keys, right_keys) = keys.split_at_mut(mid);
+    let (left_out, right_out) = out.split_at_mut(mid);
+    let mut build_left = || build_large(left_nodes, l, left_keys, left_out, start, triangles);
+    let mut build_right = || {
+        build_large(
+            right_nodes,
+            r,
+            right_keys,
+            right_out,
+            start + mid,
+            triangles,
+        )
+    };
+    if n > PARALLEL_BUILD {
+        rayon::join(build_left, build_right);
+    } else {
+        build_left();
+        build_right();
+    }
+    let (a, b) = (&left_nodes[0], &right_nodes[0]);
+    let (lo, hi) = (a.lo.min(b.lo), a.hi.max(b.hi));
+    let pole = Multipole::merge(&a.pole, &b.pole, lo, hi);
+    *head = Node {
+        lo,
+        hi,
+        pole,
+        start: start as u32,
+        end: (start + n) as u32,
+        left: l,
+        right: r,
+    };
 }
 
 /// A node of the triangle tree over `entries` (the triangles `start..`).
