@@ -885,6 +885,7 @@ fn build_large(
             &|n: &mut Node, l, r| (n.left, n.right) = (l, r),
         );
         for (o, e) in out.iter_mut().zip(&entries) {
+            debug_assert_eq!(fixed_corners(&e.0.corners), triangles[e.1 as usize]);
             *o = e.0.corners;
         }
         return;
