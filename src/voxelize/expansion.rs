@@ -180,12 +180,11 @@ fn m2l_terms_avx2(centre: DVec3, rho: f64, poles: &[&Multipole; M2L_LANES]) -> M
 /// [`LocalExpansion::add_multipole`]).
 #[inline(always)]
 fn m2l_terms(centre: DVec3, rho: f64, poles: &[&Multipole; M2L_LANES]) -> M2lTerms {
-    let lane = |f: &dyn Fn(&Multipole) -> f64| Lanes(poles.map(f));
-    let y = [0, 1, 2].map(|i| lane(&|m| m.centre[i] - centre[i]));
-    let n = [0, 1, 2].map(|i| lane(&|m| m.normal[i]));
+    let y = each3!(i => gather(poles, |m| m.centre[i] - centre[i]));
+    let n = each3!(i => gather(poles, |m| m.normal[i]));
     // `sc[i][j]` is `S_ij` (`moment.col(j)[i]`).
-    let sc = [0, 1, 2].map(|i| [0, 1, 2].map(|j| lane(&|m| m.moment.col(j)[i])));
-    let radius = lane(&|m| m.radius);
+    let sc = each3!(i => each3!(j => gather(poles, |m| m.moment.col(j)[i])));
+    let radius = gather(poles, |m| m.radius);
     let k = Lanes::splat(1.0 / FOUR_PI);
     let c = Lanes::splat;
     let r = (y[0] * y[0] + y[1] * y[1] + y[2] * y[2]).sqrt();
@@ -197,67 +196,73 @@ fn m2l_terms(centre: DVec3, rho: f64, poles: &[&Multipole; M2L_LANES]) -> M2lTer
     let s9 = s7 * inv_r2;
     let ny = n[0] * y[0] + n[1] * y[1] + n[2] * y[2];
     // S y, column by column (glam's order).
-    let sy = [0, 1, 2].map(|i| sc[i][0] * y[0] + sc[i][1] * y[1] + sc[i][2] * y[2]);
+    let sy = each3!(i => sc[i][0] * y[0] + sc[i][1] * y[1] + sc[i][2] * y[2]);
     let ysy = y[0] * sy[0] + y[1] * sy[1] + y[2] * sy[2];
     let tr = sc[0][0] + sc[1][1] + sc[2][2];
     let value = k * ((ny + tr) * s3 - c(3.0) * ysy * s5);
     let a1 = (c(3.0) * (ny + tr)) * s5 - c(15.0) * ysy * s7;
-    let gradient = [0, 1, 2].map(|i| k * (y[i] * a1 + sy[i] * (c(6.0) * s5) - n[i] * s3));
+    let gradient = each3!(i => k * (y[i] * a1 + sy[i] * (c(6.0) * s5) - n[i] * s3));
     let a = c(105.0) * ysy * s9 - c(15.0) * (ny + tr) * s7;
-    let v = [0, 1, 2].map(|i| n[i] * (c(3.0) * s5) - sy[i] * (c(30.0) * s7));
+    let v = each3!(i => n[i] * (c(3.0) * s5) - sy[i] * (c(30.0) * s7));
     let diag = c(3.0) * (ny + tr) * s5 - c(15.0) * ysy * s7;
     let s6 = c(6.0) * s5;
-    let h = |i: usize, j: usize| a * y[i] * y[j] + (v[i] * y[j] + v[j] * y[i]) + s6 * sc[i][j];
+    macro_rules! h {
+        ($i:expr, $j:expr) => {
+            a * y[$i] * y[$j] + (v[$i] * y[$j] + v[$j] * y[$i]) + s6 * sc[$i][$j]
+        };
+    }
     let hessian = [
-        h(0, 0) + diag,
-        h(1, 1) + diag,
-        h(2, 2) + diag,
-        h(0, 1),
-        h(1, 2),
-        h(2, 0),
-    ]
-    .map(|x| k * x);
+        k * (h!(0, 0) + diag),
+        k * (h!(1, 1) + diag),
+        k * (h!(2, 2) + diag),
+        k * h!(0, 1),
+        k * h!(1, 2),
+        k * h!(2, 0),
+    ];
     // The third-order term `f = (k/2)(15 P s₇ − 9 L s₅)` with `P = T(y,y,y)`,
     // `L = τ·y`, `v = T(y,y,·)`, `W = T(y,·,·)`: value `f`, gradient `−∇f`,
     // Hessian `∇²f` (`∇P = 3v`, `∇²P = 6W`).
-    let t = std::array::from_fn::<Lanes, 10, _>(|i| lane(&|m| m.third[i]));
+    let mut t = [Lanes::splat(0.0); 10];
+    for (i, ti) in t.iter_mut().enumerate() {
+        *ti = gather(poles, |m| m.third[i]);
+    }
     let (w, tv) = third_contractions(&t, y);
     let p3 = tv[0] * y[0] + tv[1] * y[1] + tv[2] * y[2];
-    let tau = [0, 1, 2].map(|i| lane(&|m| m.third_trace[i]));
+    let tau = each3!(i => gather(poles, |m| m.third_trace[i]));
     let l3 = tau[0] * y[0] + tau[1] * y[1] + tau[2] * y[2];
     let s11 = s9 * inv_r2;
     let half_k = c(0.5) * k;
     let value3 = half_k * (c(15.0) * p3 * s7 - c(9.0) * l3 * s5);
-    let gradient3 = [0, 1, 2].map(|i| {
-        half_k
-            * (c(9.0) * (tau[i] * s5 - c(5.0) * l3 * y[i] * s7)
-                - c(15.0) * (c(3.0) * tv[i] * s7 - c(7.0) * p3 * y[i] * s9))
-    });
+    let gradient3 = each3!(i => half_k
+        * (c(9.0) * (tau[i] * s5 - c(5.0) * l3 * y[i] * s7)
+            - c(15.0) * (c(3.0) * tv[i] * s7 - c(7.0) * p3 * y[i] * s9)));
     let diag3 = c(15.0) * (c(-7.0) * p3 * s9) - c(9.0) * (c(-5.0) * l3 * s7);
-    let h3 = |i: usize, j: usize, wij: Lanes| {
-        c(15.0)
-            * (c(6.0) * wij * s7 - c(21.0) * (tv[i] * y[j] + y[i] * tv[j]) * s9
-                + c(63.0) * p3 * y[i] * y[j] * s11)
-            - c(9.0)
-                * (c(35.0) * l3 * y[i] * y[j] * s9 - c(5.0) * (tau[i] * y[j] + y[i] * tau[j]) * s7)
-    };
+    macro_rules! h3 {
+        ($i:expr, $j:expr, $wij:expr) => {
+            c(15.0)
+                * (c(6.0) * $wij * s7 - c(21.0) * (tv[$i] * y[$j] + y[$i] * tv[$j]) * s9
+                    + c(63.0) * p3 * y[$i] * y[$j] * s11)
+                - c(9.0)
+                    * (c(35.0) * l3 * y[$i] * y[$j] * s9
+                        - c(5.0) * (tau[$i] * y[$j] + y[$i] * tau[$j]) * s7)
+        };
+    }
     let hessian3 = [
-        h3(0, 0, w[0]) + diag3,
-        h3(1, 1, w[1]) + diag3,
-        h3(2, 2, w[2]) + diag3,
-        h3(0, 1, w[3]),
-        h3(1, 2, w[4]),
-        h3(2, 0, w[5]),
-    ]
-    .map(|x| half_k * x);
+        half_k * (h3!(0, 0, w[0]) + diag3),
+        half_k * (h3!(1, 1, w[1]) + diag3),
+        half_k * (h3!(2, 2, w[2]) + diag3),
+        half_k * h3!(0, 1, w[3]),
+        half_k * h3!(1, 2, w[4]),
+        half_k * h3!(2, 0, w[5]),
+    ];
     // Taylor remainders after degree 2 and the truncation at `r − ρ`.
     let rho = c(rho);
     let gr = r - rho;
     let inv_gr = c(1.0) / gr;
     let u = rho * inv_r;
     let u3 = u * u * u;
-    let dipole = lane(&|m| m.normal_length) * u3 * (c(4.0) - c(3.0) * u) * inv_gr * inv_gr;
-    let moment = lane(&|m| m.first)
+    let dipole = gather(poles, |m| m.normal_length) * u3 * (c(4.0) - c(3.0) * u) * inv_gr * inv_gr;
+    let moment = gather(poles, |m| m.first)
         * u3
         * (c(20.0) - c(30.0) * u + c(12.0) * u * u)
         * inv_gr
@@ -268,19 +273,60 @@ fn m2l_terms(centre: DVec3, rho: f64, poles: &[&Multipole; M2L_LANES]) -> M2lTer
     // `(S₂/2) u³ (120 − 270u + 216u² − 60u³) / ((1 − u)⁴ d⁴)`.
     let inv_gr2 = inv_gr * inv_gr;
     let third = c(0.5)
-        * lane(&|m| m.second)
+        * gather(poles, |m| m.second)
         * u3
         * (c(120.0) - c(270.0) * u + c(216.0) * u * u - c(60.0) * u3)
         * (inv_gr2 * inv_gr2);
     let g = gr - radius;
-    let truncation =
-        lane(&|m| m.cubic) * (c(4.0) * gr - c(3.0) * radius) / (g * g * (gr * gr) * (gr * gr));
+    let truncation = gather(poles, |m| m.cubic) * (c(4.0) * gr - c(3.0) * radius)
+        / (g * g * (gr * gr) * (gr * gr));
     M2lTerms {
         value: (value + value3).0,
-        gradient: [0, 1, 2].map(|i| (gradient[i] + gradient3[i]).0),
-        hessian: [0, 1, 2, 3, 4, 5].map(|i| (hessian[i] - hessian3[i]).0),
+        gradient: each3!(i => (gradient[i] + gradient3[i]).0),
+        hessian: [
+            (hessian[0] - hessian3[0]).0,
+            (hessian[1] - hessian3[1]).0,
+            (hessian[2] - hessian3[2]).0,
+            (hessian[3] - hessian3[3]).0,
+            (hessian[4] - hessian3[4]).0,
+            (hessian[5] - hessian3[5]).0,
+        ],
         error: (k * (truncation + dipole + moment + third)).0,
     }
+}
+
+/// `[e(0), e(1), e(2)]` written out: in the translation kernel a closure
+/// or an array's `map` can stay an out-of-line call, compiled without the
+/// kernel's AVX2 (callgrind: a third of its instructions were in two such
+/// calls).
+macro_rules! each3 {
+    ($i:ident => $e:expr) => {
+        [
+            {
+                let $i = 0usize;
+                $e
+            },
+            {
+                let $i = 1usize;
+                $e
+            },
+            {
+                let $i = 2usize;
+                $e
+            },
+        ]
+    };
+}
+use each3;
+
+/// One field of each of `poles`, lane by lane.
+#[inline(always)]
+fn gather(poles: &[&Multipole; M2L_LANES], f: impl Fn(&Multipole) -> f64) -> Lanes {
+    let mut out = [0.0; M2L_LANES];
+    for (o, m) in out.iter_mut().zip(poles) {
+        *o = f(m);
+    }
+    Lanes(out)
 }
 
 /// [`M2L_LANES`] `f64` values operated on lane by lane (each operation a
@@ -296,7 +342,11 @@ impl Lanes {
 
     #[inline(always)]
     fn sqrt(self) -> Self {
-        Lanes(self.0.map(f64::sqrt))
+        let mut out = self.0;
+        for v in &mut out {
+            *v = v.sqrt();
+        }
+        Lanes(out)
     }
 }
 
@@ -306,15 +356,19 @@ macro_rules! lanes_op {
             type Output = Lanes;
             #[inline(always)]
             fn $f(self, o: Lanes) -> Lanes {
-                Lanes(std::array::from_fn(|l| self.0[l] $op o.0[l]))
+                let mut out = self.0;
+                for (a, b) in out.iter_mut().zip(o.0) {
+                    *a $op b;
+                }
+                Lanes(out)
             }
         }
     };
 }
-lanes_op!(Add, add, +);
-lanes_op!(Sub, sub, -);
-lanes_op!(Mul, mul, *);
-lanes_op!(Div, div, /);
+lanes_op!(Add, add, +=);
+lanes_op!(Sub, sub, -=);
+lanes_op!(Mul, mul, *=);
+lanes_op!(Div, div, /=);
 
 /// A cluster of triangles as seen from afar: the first three terms of the
 /// Taylor expansion of the kernel about the cluster's centre `p`.

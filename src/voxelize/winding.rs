@@ -205,17 +205,55 @@ fn atan2_f32(y: f32, x: f32) -> f32 {
     if y < 0.0 { -r } else { r }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn near_kernel_avx2(
-    tris: &[[[f32; 3]; 3]],
+/// The raw sums of [`WindingTree::near_lanes`]: the leaves `near`, each
+/// triangle's corners taken relative to `o` in `f32`, through
+/// [`near_kernel`] [`CHUNK`] at a time, each chunk's lane sums and rounding
+/// terms added to `f64` totals; with the triangles summed.
+#[inline(always)]
+fn near_sums(
+    tree: &WindingTree,
+    near: &[u32],
+    o: DVec3,
     p: &[[f32; LANES]; 3],
     s: f32,
-    acc: &mut [f32; LANES],
-    err: &mut [f32; LANES],
-    flat: &mut [bool; LANES],
-) {
-    near_kernel(tris, p, s, acc, err, flat);
+) -> ([f64; LANES], [f64; LANES], [bool; LANES], usize) {
+    let mut sum = [0.0; LANES];
+    let mut err = [0.0; LANES];
+    let mut flat = [false; LANES];
+    let mut count = 0;
+    let mut chunk = [[[0.0f32; 3]; 3]; CHUNK];
+    for &id in near {
+        for tris in tree.leaf_triangles(id).chunks(chunk.len()) {
+            for (c, t) in chunk.iter_mut().zip(tris) {
+                *c = t.map(|v| [(v.x - o.x) as f32, (v.y - o.y) as f32, (v.z - o.z) as f32]);
+            }
+            let tris = &chunk[..tris.len()];
+            count += tris.len();
+            let (mut part, mut part_err) = ([0.0f32; LANES], [0.0f32; LANES]);
+            near_kernel(tris, p, s, &mut part, &mut part_err, &mut flat);
+            for i in 0..LANES {
+                sum[i] += f64::from(part[i]);
+                err[i] += f64::from(part_err[i]);
+            }
+        }
+    }
+    (sum, err, flat, count)
+}
+
+/// [`near_sums`] compiled for AVX2: the kernel's eight lanes in one
+/// register, and the corners' conversions and the totals vectorised too
+/// (compiled apart from the kernel they were a fifth of a scanned mesh's
+/// solid time, `docs/performance-notes.md`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn near_sums_avx2(
+    tree: &WindingTree,
+    near: &[u32],
+    o: DVec3,
+    p: &[[f32; LANES]; 3],
+    s: f32,
+) -> ([f64; LANES], [f64; LANES], [bool; LANES], usize) {
+    near_sums(tree, near, o, p, s)
 }
 
 /// Points evaluated together by [`WindingTree::near_lanes`]: a 2³ cube of
@@ -561,37 +599,16 @@ impl WindingTree {
         debug_assert!((0..LANES).all(|i| (0..3).all(|k| f64::from(p[k][i]) == q[i][k] - o[k])));
         let reach = q.iter().map(|x| (*x - o).length()).fold(0.0, f64::max);
         let s = (0.5 * reach * (1.0 + 1e-6)) as f32;
-        let mut sum = [0.0; LANES];
-        let mut err = [0.0; LANES];
-        let mut flat = [false; LANES];
-        let mut count = 0;
-        let mut chunk = [[[0.0f32; 3]; 3]; CHUNK];
         #[cfg(target_arch = "x86_64")]
-        let avx2 = std::arch::is_x86_feature_detected!("avx2");
-        for &id in near {
-            for tris in self.leaf_triangles(id).chunks(chunk.len()) {
-                for (c, t) in chunk.iter_mut().zip(tris) {
-                    *c = t.map(|v| [(v.x - o.x) as f32, (v.y - o.y) as f32, (v.z - o.z) as f32]);
-                }
-                let tris = &chunk[..tris.len()];
-                count += tris.len();
-                let (mut part, mut part_err) = ([0.0f32; LANES], [0.0f32; LANES]);
-                #[cfg(target_arch = "x86_64")]
-                if avx2 {
-                    // SAFETY: the CPU runs AVX2 (checked above); the kernel
-                    // uses no intrinsics, only the wider registers.
-                    unsafe { near_kernel_avx2(tris, &p, s, &mut part, &mut part_err, &mut flat) };
-                } else {
-                    near_kernel(tris, &p, s, &mut part, &mut part_err, &mut flat);
-                }
-                #[cfg(not(target_arch = "x86_64"))]
-                near_kernel(tris, &p, s, &mut part, &mut part_err, &mut flat);
-                for i in 0..LANES {
-                    sum[i] += f64::from(part[i]);
-                    err[i] += f64::from(part_err[i]);
-                }
-            }
-        }
+        let (sum, err, flat, count) = if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU runs AVX2 (checked here); the loop uses no
+            // intrinsics, only the wider registers.
+            unsafe { near_sums_avx2(self, near, o, &p, s) }
+        } else {
+            near_sums(self, near, o, &p, s)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let (sum, err, flat, count) = near_sums(self, near, o, &p, s);
         let per_triangle = 2.0 * FAST_ATAN2_F32_ERROR + std::f64::consts::TAU * 7.01 * U32;
         NearLanes {
             sum: sum.map(|v| v / FOUR_PI),
