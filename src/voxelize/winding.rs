@@ -205,32 +205,42 @@ fn atan2_f32(y: f32, x: f32) -> f32 {
     if y < 0.0 { -r } else { r }
 }
 
-/// The raw sums of [`WindingTree::near_lanes`]: the leaves `near`, each
-/// triangle's corners taken relative to `o` in `f32`, through
-/// [`near_kernel`] [`CHUNK`] at a time, each chunk's lane sums and rounding
-/// terms added to `f64` totals; with the triangles summed.
-#[inline(always)]
-fn near_sums(
-    tree: &WindingTree,
-    near: &[u32],
+/// What [`near_sums`] sums: the leaves `near` of `tree` at the points `p`
+/// (offsets from `o` in `f32`, within `s` of it, as [`near_kernel`] takes
+/// them).
+struct NearQuery<'a> {
+    tree: &'a WindingTree,
+    near: &'a [u32],
     o: DVec3,
-    p: &[[f32; LANES]; 3],
+    p: [[f32; LANES]; 3],
     s: f32,
-) -> ([f64; LANES], [f64; LANES], [bool; LANES], usize) {
+}
+
+/// The raw totals of [`WindingTree::near_lanes`]: per lane the sum and the
+/// rounding terms, the lanes that may lie in a triangle's plane, and the
+/// triangles summed.
+type NearTotals = ([f64; LANES], [f64; LANES], [bool; LANES], usize);
+
+/// The leaves of `q`, each triangle's corners taken relative to `o` in
+/// `f32`, through [`near_kernel`] [`CHUNK`] at a time, each chunk's lane
+/// sums and rounding terms added to `f64` totals.
+#[inline(always)]
+fn near_sums(q: &NearQuery) -> NearTotals {
+    let o = q.o;
     let mut sum = [0.0; LANES];
     let mut err = [0.0; LANES];
     let mut flat = [false; LANES];
     let mut count = 0;
     let mut chunk = [[[0.0f32; 3]; 3]; CHUNK];
-    for &id in near {
-        for tris in tree.leaf_triangles(id).chunks(chunk.len()) {
+    for &id in q.near {
+        for tris in q.tree.leaf_triangles(id).chunks(chunk.len()) {
             for (c, t) in chunk.iter_mut().zip(tris) {
                 *c = t.map(|v| [(v.x - o.x) as f32, (v.y - o.y) as f32, (v.z - o.z) as f32]);
             }
             let tris = &chunk[..tris.len()];
             count += tris.len();
             let (mut part, mut part_err) = ([0.0f32; LANES], [0.0f32; LANES]);
-            near_kernel(tris, p, s, &mut part, &mut part_err, &mut flat);
+            near_kernel(tris, &q.p, q.s, &mut part, &mut part_err, &mut flat);
             for i in 0..LANES {
                 sum[i] += f64::from(part[i]);
                 err[i] += f64::from(part_err[i]);
@@ -241,19 +251,13 @@ fn near_sums(
 }
 
 /// [`near_sums`] compiled for AVX2: the kernel's eight lanes in one
-/// register, and the corners' conversions and the totals vectorised too
-/// (compiled apart from the kernel they were a fifth of a scanned mesh's
-/// solid time, `docs/performance-notes.md`).
+/// register, and the corners' conversions and the totals vectorised with it
+/// (compiled apart from the kernel they cost ~10% of a scanned mesh's near
+/// field, `docs/performance-notes.md`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn near_sums_avx2(
-    tree: &WindingTree,
-    near: &[u32],
-    o: DVec3,
-    p: &[[f32; LANES]; 3],
-    s: f32,
-) -> ([f64; LANES], [f64; LANES], [bool; LANES], usize) {
-    near_sums(tree, near, o, p, s)
+fn near_sums_avx2(q: &NearQuery) -> NearTotals {
+    near_sums(q)
 }
 
 /// Points evaluated together by [`WindingTree::near_lanes`]: a 2³ cube of
@@ -599,16 +603,23 @@ impl WindingTree {
         debug_assert!((0..LANES).all(|i| (0..3).all(|k| f64::from(p[k][i]) == q[i][k] - o[k])));
         let reach = q.iter().map(|x| (*x - o).length()).fold(0.0, f64::max);
         let s = (0.5 * reach * (1.0 + 1e-6)) as f32;
+        let query = NearQuery {
+            tree: self,
+            near,
+            o,
+            p,
+            s,
+        };
         #[cfg(target_arch = "x86_64")]
         let (sum, err, flat, count) = if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU runs AVX2 (checked here); the loop uses no
             // intrinsics, only the wider registers.
-            unsafe { near_sums_avx2(self, near, o, &p, s) }
+            unsafe { near_sums_avx2(&query) }
         } else {
-            near_sums(self, near, o, &p, s)
+            near_sums(&query)
         };
         #[cfg(not(target_arch = "x86_64"))]
-        let (sum, err, flat, count) = near_sums(self, near, o, &p, s);
+        let (sum, err, flat, count) = near_sums(&query);
         let per_triangle = 2.0 * FAST_ATAN2_F32_ERROR + std::f64::consts::TAU * 7.01 * U32;
         NearLanes {
             sum: sum.map(|v| v / FOUR_PI),
