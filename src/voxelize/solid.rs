@@ -54,7 +54,7 @@ use crate::grid::{BitGrid, BrickGrid, Dims, MemoryLimit, Voxel};
 use crate::voxelize::caps::Boundary;
 use crate::voxelize::conservative::FixedTriangle;
 use crate::voxelize::fill::{
-    BrickRefiner, BrickRule, FillOutput, LineValue, NoRefiner, fill_interior,
+    BrickRefiner, BrickRule, Chain, FillOutput, LineValue, NoRefiner, fill_interior,
 };
 use crate::voxelize::surface::{SurfaceTriangle, VOXEL_ONE};
 use crate::voxelize::winding::{
@@ -545,7 +545,7 @@ pub fn solid_interior_in(
     let mut stats = SolidStats::default();
     let out = match test {
         InsideTest::Parity => fill_interior(
-            &in_region_columns(triangles, region),
+            (&*in_region_columns(triangles, region)).into(),
             dims,
             LineValue::Parity,
             &[],
@@ -562,23 +562,17 @@ pub fn solid_interior_in(
             drop(boundary);
             stats.caps = caps.len();
             stats.caps_us = t.elapsed().as_micros() as u64;
-            // Written in parallel: on large meshes this is tens of MB of
-            // fresh pages.
-            let closed_soup = || -> Vec<SurfaceTriangle> {
-                let closed: Vec<SurfaceTriangle> = triangles
-                    .par_iter()
-                    .copied()
-                    .chain(caps.par_iter().map(|t| [t[0], t[2], t[1]]))
-                    .collect();
-                match in_region_columns(&closed, region) {
-                    Cow::Borrowed(_) => closed,
-                    Cow::Owned(inside) => inside,
-                }
+            // The soup closed by its caps, reversed: read from the two slices
+            // (a region keeps only the triangles whose crossings count in it).
+            let own = in_region_columns(triangles, region);
+            let caps_in = in_region_columns(&caps, region);
+            let closed = Chain {
+                triangles: &own,
+                reversed: &caps_in,
             };
             if caps.is_empty() {
-                let closed = closed_soup();
                 fill_interior(
-                    &closed,
+                    closed,
                     dims,
                     LineValue::Winding,
                     &[],
@@ -588,10 +582,7 @@ pub fn solid_interior_in(
                 )
             } else {
                 let t = std::time::Instant::now();
-                // The closed soup fills the cores the tree's top levels
-                // leave idle.
-                let (closed, caps_tree) =
-                    rayon::join(closed_soup, || WindingTree::with_rim(&caps, rim));
+                let caps_tree = WindingTree::with_rim(&caps, rim);
                 stats.trees_us = t.elapsed().as_micros() as u64;
                 let ctx = Classifier {
                     caps: caps_tree,
@@ -623,7 +614,7 @@ pub fn solid_interior_in(
                 ctx.bricks_total
                     .store(stats.refined_bricks as u64, Ordering::Relaxed);
                 let out = fill_interior(
-                    &closed,
+                    closed,
                     dims,
                     LineValue::Winding,
                     &rules,
