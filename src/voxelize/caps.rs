@@ -87,7 +87,7 @@ fn uncancelled<U: Sync, K: Copy + Ord + Send>(
 ) -> Vec<(K, K)> {
     // Most groups cancel: they are dropped before anything is collected (a
     // `flat_map_iter` extended the output once per group, empty or not,
-    // and that was a tenth of a holed mesh's set-up).
+    // and that was 9% of a holed mesh's CPU).
     let kept: Vec<((K, K), u64)> = uses
         .par_chunk_by(same)
         .filter_map(|group| {

@@ -524,6 +524,61 @@ fn layer_crossings(
 mod tests {
     use super::*;
 
+    /// A [`Chain`] of a closed soup's triangles, some stored reversed,
+    /// fills exactly as the copy that lists them all oriented.
+    #[test]
+    fn chain_reads_like_its_copy() {
+        use crate::voxelize::shapes::IndexedMesh;
+        use glam::DVec3;
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let dims = [40usize, 36, 33];
+        let reverse = |t: &SurfaceTriangle| [t[0], t[2], t[1]];
+        for _ in 0..6 {
+            let c = DVec3::new(
+                rng.random_range(13.0..27.0),
+                rng.random_range(13.0..23.0),
+                rng.random_range(13.0..20.0),
+            );
+            let mesh = IndexedMesh::uv_sphere(c, rng.random_range(4.0..11.0), 9, 13);
+            let fixed = |v: DVec3| v.to_array().map(|x| (x * VOXEL_ONE as f64).round() as i64);
+            let (mut own, mut rev) = (Vec::new(), Vec::new());
+            for f in &mesh.faces {
+                let t: SurfaceTriangle = f.map(|i| fixed(mesh.vertices[i as usize]));
+                if rng.random_bool(0.4) {
+                    rev.push(reverse(&t));
+                } else {
+                    own.push(t);
+                }
+            }
+            let copy: Vec<SurfaceTriangle> =
+                own.iter().copied().chain(rev.iter().map(reverse)).collect();
+            let surface = BrickGrid::new();
+            let fill = |chain: Chain<'_>| {
+                let o = fill_interior(
+                    chain,
+                    dims,
+                    LineValue::Winding,
+                    &[],
+                    &NoRefiner,
+                    &surface,
+                    0.0,
+                );
+                (o.keys, o.masks, o.tiles, o.crossings)
+            };
+            let chained = fill(Chain {
+                triangles: &own,
+                reversed: &rev,
+            });
+            let copied = fill((&copy[..]).into());
+            assert!(
+                copied.3 > 0 && !copied.1.is_empty(),
+                "the sphere fills something"
+            );
+            assert_eq!(chained, copied);
+        }
+    }
+
     #[test]
     fn runs_set_the_right_bits() {
         let mut masks = vec![[0u64; 8]; 3];
