@@ -92,9 +92,11 @@ fn uncancelled<U: Sync, K: Copy + Ord + Send>(
         .par_chunk_by(same)
         .filter_map(|group| {
             let m: i64 = group.iter().map(&sign).sum();
+            if m == 0 {
+                return None;
+            }
             let (a, b) = edge(&group[0]);
-            let e = if m > 0 { (a, b) } else { (b, a) };
-            (m != 0).then_some((e, m.unsigned_abs()))
+            Some((if m > 0 { (a, b) } else { (b, a) }, m.unsigned_abs()))
         })
         .collect();
     let mut out = Vec::with_capacity(kept.iter().map(|&(_, m)| m as usize).sum());
@@ -127,6 +129,69 @@ fn distance2(p: [i64; 3], q: [i64; 3]) -> i128 {
 /// The position of a [`packed_position`] key.
 fn unpacked_position(k: u128) -> [i64; 3] {
     [2, 1, 0].map(|i| ((k >> (32 * i)) as u32) as i64 - PACK_BIAS)
+}
+
+/// [`packed_boundary_edges`] with each use in one `u128` when the
+/// coordinates span less than 2^21 (a grid of up to 8,192 voxels a side at
+/// 1/256 voxel): the six coordinates less their minimum in 21 bits each,
+/// the sign in the lowest bit. Sorting them as integers sorts them by
+/// (lower end, upper end) and puts the uses of one edge next to each other;
+/// a third less memory than 24-byte uses, and sorted in two-word compares.
+/// `None` when the coordinates span more or lie beyond `±2^30`.
+fn narrow_boundary_edges(
+    first: &[SurfaceTriangle],
+    second: &[SurfaceTriangle],
+) -> Option<Vec<(u128, u128)>> {
+    const BITS: u32 = 21;
+    let soup = first.par_iter().chain(second);
+    let (base, top) = soup
+        .map(|t| {
+            let c = t.iter().flatten();
+            (*c.clone().min().unwrap_or(&0), *c.max().unwrap_or(&0))
+        })
+        .reduce(|| (i64::MAX, i64::MIN), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+    if base > top {
+        return Some(Vec::new());
+    }
+    if top - base >= 1 << BITS || base < -PACK_BIAS || top >= PACK_BIAS {
+        return None;
+    }
+    let triangle = |i: usize| first.get(i).unwrap_or_else(|| &second[i - first.len()]);
+    // Degenerate edges (a == b) become this, which no use can be (it would
+    // need bit 127) and which sorts last.
+    const NONE: u128 = u128::MAX;
+    let field = |c: i64| (c - base) as u128;
+    let mut uses: Vec<u128> = (0..3 * (first.len() + second.len()))
+        .into_par_iter()
+        .map(|u| {
+            let t = triangle(u / 3);
+            let (a, b) = (t[u % 3], t[(u + 1) % 3]);
+            let (lo, hi, sign) = match a.cmp(&b) {
+                std::cmp::Ordering::Less => (a, b, 1),
+                std::cmp::Ordering::Greater => (b, a, 0),
+                std::cmp::Ordering::Equal => return NONE,
+            };
+            lo.iter()
+                .chain(&hi)
+                .fold(0u128, |k, &c| k << BITS | field(c))
+                << 1
+                | sign
+        })
+        .collect();
+    uses.par_sort_unstable();
+    let end = uses.partition_point(|&u| u != NONE);
+    let mask = (1u128 << BITS) - 1;
+    Some(uncancelled(
+        &uses[..end],
+        |x, y| x >> 1 == y >> 1,
+        |&u| if u & 1 == 1 { 1 } else { -1 },
+        |&u| {
+            let c: [i64; 6] =
+                std::array::from_fn(|i| ((u >> (1 + BITS * (5 - i as u32))) & mask) as i64 + base);
+            let (lo, hi) = ([c[0], c[1], c[2]], [c[3], c[4], c[5]]);
+            (packed_position(lo), packed_position(hi))
+        },
+    ))
 }
 
 /// [`boundary_edges`] of the fixed-point triangles `first` and `second` by
@@ -315,10 +380,12 @@ impl Boundary {
     /// The boundary of `triangles` with `degenerate` (zero-area triangles,
     /// which still pair their neighbours' edges).
     pub fn of(triangles: &[SurfaceTriangle], degenerate: &[SurfaceTriangle]) -> Self {
-        let edges = packed_boundary_edges(triangles, degenerate).unwrap_or_else(|| {
-            let soup = triangles.iter().chain(degenerate);
-            boundary_edges(soup.map(|t| t.map(packed_position)))
-        });
+        let edges = narrow_boundary_edges(triangles, degenerate)
+            .or_else(|| packed_boundary_edges(triangles, degenerate))
+            .unwrap_or_else(|| {
+                let soup = triangles.iter().chain(degenerate);
+                boundary_edges(soup.map(|t| t.map(packed_position)))
+            });
         Boundary { edges }
     }
 
@@ -729,6 +796,56 @@ mod tests {
         for far in [[1 << 30, 0, 0], [0, -PACK_BIAS - 1, 0]] {
             assert_eq!(packed_boundary_edges(&[[a, b, far]], &[]), None);
         }
+    }
+
+    /// The one-word uses find the same boundary as the generic sort:
+    /// random soups on a small lattice inside a window of 2^21 whose ends
+    /// are used (placed anywhere in `±2^30`, at both ends too); a window one
+    /// wider, or one beyond `±2^30`, declines.
+    #[test]
+    fn narrow_edges_equal_the_generic_sort() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(9);
+        let span = (1i64 << 21) - 1;
+        for trial in 0..200 {
+            let base = match trial % 3 {
+                0 => -PACK_BIAS,
+                1 => PACK_BIAS - 1 - span,
+                _ => rng.random_range(-PACK_BIAS..PACK_BIAS - span),
+            };
+            let lattice: Vec<[i64; 3]> = (0..rng.random_range(3..12))
+                .map(|_| {
+                    [0, 1, 2].map(|_| match rng.random_range(0..5) {
+                        0 => base,
+                        1 => base + span,
+                        _ => base + span / 2 + rng.random_range(-4..4) * 256,
+                    })
+                })
+                .collect();
+            let mut soup = |n: usize| -> Vec<SurfaceTriangle> {
+                (0..n)
+                    .map(|_| [0, 1, 2].map(|_| lattice[rng.random_range(0..lattice.len())]))
+                    .collect()
+            };
+            let (first, second) = (soup(trial % 40), soup(trial % 7));
+            let generic =
+                boundary_edges(first.iter().chain(&second).map(|t| t.map(packed_position)));
+            assert_eq!(
+                narrow_boundary_edges(&first, &second),
+                Some(generic),
+                "trial {trial}"
+            );
+        }
+        let (a, b) = ([0, 0, 0], [256, 0, 0]);
+        for far in [[span + 1, 0, 0], [0, -span - 1, 0]] {
+            assert_eq!(narrow_boundary_edges(&[[a, b, far]], &[]), None);
+        }
+        let beyond = [a, b, [0, 256, 0]].map(|p| p.map(|c| c + PACK_BIAS));
+        assert_eq!(narrow_boundary_edges(&[beyond], &[]), None);
+        assert_eq!(
+            narrow_boundary_edges(&[[a, b, [span, 0, 0]]], &[]).map(|e| e.len()),
+            Some(3)
+        );
     }
 
     /// A long hole's caps close it (their boundary is the cycle) without a
