@@ -131,6 +131,31 @@ fn unpacked_position(k: u128) -> [i64; 3] {
     [2, 1, 0].map(|i| ((k >> (32 * i)) as u32) as i64 - PACK_BIAS)
 }
 
+/// Every edge use of the triangles `first` then `second` (use `u` is edge
+/// `u % 3` of triangle `u / 3`), written in parallel as `pack(smaller end,
+/// larger end, 1 if the use runs smaller → larger else 0)`; `none` for a
+/// degenerate edge.
+fn packed_uses<U: Copy + Send + Sync>(
+    first: &[SurfaceTriangle],
+    second: &[SurfaceTriangle],
+    none: U,
+    pack: impl Fn([i64; 3], [i64; 3], u64) -> U + Sync,
+) -> Vec<U> {
+    let triangle = |i: usize| first.get(i).unwrap_or_else(|| &second[i - first.len()]);
+    (0..3 * (first.len() + second.len()))
+        .into_par_iter()
+        .map(|u| {
+            let t = triangle(u / 3);
+            let (a, b) = (t[u % 3], t[(u + 1) % 3]);
+            match a.cmp(&b) {
+                std::cmp::Ordering::Less => pack(a, b, 1),
+                std::cmp::Ordering::Greater => pack(b, a, 0),
+                std::cmp::Ordering::Equal => none,
+            }
+        })
+        .collect()
+}
+
 /// [`packed_boundary_edges`] with each use in one `u128` when the
 /// coordinates span less than 2^21 (a grid of up to 8,192 voxels a side at
 /// 1/256 voxel): the six coordinates less their minimum in 21 bits each,
@@ -156,28 +181,17 @@ fn narrow_boundary_edges(
     if top - base >= 1 << BITS || base < -PACK_BIAS || top >= PACK_BIAS {
         return None;
     }
-    let triangle = |i: usize| first.get(i).unwrap_or_else(|| &second[i - first.len()]);
     // Degenerate edges (a == b) become this, which no use can be (it would
     // need bit 127) and which sorts last.
     const NONE: u128 = u128::MAX;
     let field = |c: i64| (c - base) as u128;
-    let mut uses: Vec<u128> = (0..3 * (first.len() + second.len()))
-        .into_par_iter()
-        .map(|u| {
-            let t = triangle(u / 3);
-            let (a, b) = (t[u % 3], t[(u + 1) % 3]);
-            let (lo, hi, sign) = match a.cmp(&b) {
-                std::cmp::Ordering::Less => (a, b, 1),
-                std::cmp::Ordering::Greater => (b, a, 0),
-                std::cmp::Ordering::Equal => return NONE,
-            };
-            lo.iter()
-                .chain(&hi)
-                .fold(0u128, |k, &c| k << BITS | field(c))
-                << 1
-                | sign
-        })
-        .collect();
+    let mut uses = packed_uses(first, second, NONE, |lo, hi, sign| {
+        let k = lo
+            .iter()
+            .chain(&hi)
+            .fold(0u128, |k, &c| k << BITS | field(c));
+        k << 1 | u128::from(sign)
+    });
     uses.par_sort_unstable();
     let end = uses.partition_point(|&u| u != NONE);
     let mask = (1u128 << BITS) - 1;
@@ -210,30 +224,19 @@ fn packed_boundary_edges(
     if !soup.all(|t| t.iter().flatten().all(|&c| fits(c))) {
         return None;
     }
-    let triangle = |i: usize| first.get(i).unwrap_or_else(|| &second[i - first.len()]);
     // Degenerate edges (a == b) become this, which no use can be (its
     // middle word would need bit 63) and which sorts last.
     const NONE: [u64; 3] = [u64::MAX; 3];
     let biased = |p: [i64; 3]| p.map(|c| (c + PACK_BIAS) as u64);
-    let mut uses: Vec<[u64; 3]> = (0..3 * (first.len() + second.len()))
-        .into_par_iter()
-        .map(|u| {
-            let t = triangle(u / 3);
-            let (a, b) = (t[u % 3], t[(u + 1) % 3]);
-            let (lo, hi, sign) = match a.cmp(&b) {
-                std::cmp::Ordering::Less => (a, b, 1),
-                std::cmp::Ordering::Greater => (b, a, 0),
-                std::cmp::Ordering::Equal => return NONE,
-            };
-            let (p, q) = (biased(lo), biased(hi));
-            // (x y | sign), (z x'), (y' z'): in the order of (lo, hi).
-            [
-                (p[0] << BITS | p[1]) << 2 | sign,
-                p[2] << BITS | q[0],
-                q[1] << BITS | q[2],
-            ]
-        })
-        .collect();
+    let mut uses = packed_uses(first, second, NONE, |lo, hi, sign| {
+        let (p, q) = (biased(lo), biased(hi));
+        // (x y | sign), (z x'), (y' z'): in the order of (lo, hi).
+        [
+            (p[0] << BITS | p[1]) << 2 | sign,
+            p[2] << BITS | q[0],
+            q[1] << BITS | q[2],
+        ]
+    });
     let key = |u: &[u64; 3]| (u[0] >> 1, u[1], u[2]);
     uses.par_sort_unstable_by_key(key);
     let end = uses.partition_point(|u| *u != NONE);
@@ -758,25 +761,20 @@ mod tests {
         f.iter().map(|t| t.map(|i| v[i])).collect()
     }
 
-    /// The packed uses find the same boundary as the generic sort: random
-    /// soups on a small lattice (so that edges repeat, cancel, run both
-    /// ways and twice the same way), with degenerate edges, a second slice,
-    /// coordinates at both ends of the packed range; and beyond it they
-    /// decline.
-    #[test]
-    fn packed_edges_equal_the_generic_sort() {
+    /// A packing finds the same boundary as the generic sort on 200 random
+    /// soups (two slices) over small random lattices whose points have
+    /// coordinates drawn by `coordinate` (few points, so that edges repeat,
+    /// cancel, run both ways, twice the same way, and degenerate).
+    fn assert_packing_matches(
+        seed: u64,
+        coordinate: impl Fn(&mut rand::rngs::StdRng, usize) -> i64,
+        packing: fn(&[SurfaceTriangle], &[SurfaceTriangle]) -> Option<Vec<(u128, u128)>>,
+    ) {
         use rand::{Rng, SeedableRng};
-        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
-        let limit = (1i64 << 30) - 1;
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
         for trial in 0..200 {
             let lattice: Vec<[i64; 3]> = (0..rng.random_range(3..12))
-                .map(|_| {
-                    [0, 1, 2].map(|_| match rng.random_range(0..6) {
-                        0 => -PACK_BIAS,
-                        1 => limit,
-                        _ => rng.random_range(-4..4) * 256,
-                    })
-                })
+                .map(|_| [0, 1, 2].map(|_| coordinate(&mut rng, trial)))
                 .collect();
             let mut soup = |n: usize| -> Vec<SurfaceTriangle> {
                 (0..n)
@@ -786,56 +784,48 @@ mod tests {
             let (first, second) = (soup(trial % 40), soup(trial % 7));
             let generic =
                 boundary_edges(first.iter().chain(&second).map(|t| t.map(packed_position)));
-            assert_eq!(
-                packed_boundary_edges(&first, &second),
-                Some(generic),
-                "trial {trial}"
-            );
+            assert_eq!(packing(&first, &second), Some(generic), "trial {trial}");
         }
+    }
+
+    /// The packed uses find the same boundary as the generic sort, with
+    /// coordinates at both ends of the packed range; beyond it they decline.
+    #[test]
+    fn packed_edges_equal_the_generic_sort() {
+        use rand::Rng;
+        let limit = (1i64 << 30) - 1;
+        let coordinate = |rng: &mut rand::rngs::StdRng, _| match rng.random_range(0..6) {
+            0 => -PACK_BIAS,
+            1 => limit,
+            _ => rng.random_range(-4..4) * 256,
+        };
+        assert_packing_matches(5, coordinate, packed_boundary_edges);
         let (a, b) = ([0, 0, 0], [256, 0, 0]);
         for far in [[1 << 30, 0, 0], [0, -PACK_BIAS - 1, 0]] {
             assert_eq!(packed_boundary_edges(&[[a, b, far]], &[]), None);
         }
     }
 
-    /// The one-word uses find the same boundary as the generic sort:
-    /// random soups on a small lattice inside a window of 2^21 whose ends
-    /// are used (placed anywhere in `±2^30`, at both ends too); a window one
-    /// wider, or one beyond `±2^30`, declines.
+    /// The one-word uses find the same boundary as the generic sort, on
+    /// lattices inside a window of 2^21 whose ends are used (the window
+    /// anywhere in `±2^30`, at both ends too); a window one wider, or one
+    /// beyond `±2^30`, declines.
     #[test]
     fn narrow_edges_equal_the_generic_sort() {
-        use rand::{Rng, SeedableRng};
-        let mut rng = rand::rngs::StdRng::seed_from_u64(9);
+        use rand::Rng;
         let span = (1i64 << 21) - 1;
-        for trial in 0..200 {
-            let base = match trial % 3 {
-                0 => -PACK_BIAS,
-                1 => PACK_BIAS - 1 - span,
-                _ => rng.random_range(-PACK_BIAS..PACK_BIAS - span),
-            };
-            let lattice: Vec<[i64; 3]> = (0..rng.random_range(3..12))
-                .map(|_| {
-                    [0, 1, 2].map(|_| match rng.random_range(0..5) {
-                        0 => base,
-                        1 => base + span,
-                        _ => base + span / 2 + rng.random_range(-4..4) * 256,
-                    })
-                })
-                .collect();
-            let mut soup = |n: usize| -> Vec<SurfaceTriangle> {
-                (0..n)
-                    .map(|_| [0, 1, 2].map(|_| lattice[rng.random_range(0..lattice.len())]))
-                    .collect()
-            };
-            let (first, second) = (soup(trial % 40), soup(trial % 7));
-            let generic =
-                boundary_edges(first.iter().chain(&second).map(|t| t.map(packed_position)));
-            assert_eq!(
-                narrow_boundary_edges(&first, &second),
-                Some(generic),
-                "trial {trial}"
-            );
-        }
+        // One window per trial: the seed of its base is the trial.
+        let base = |trial: usize| match trial % 3 {
+            0 => -PACK_BIAS,
+            1 => PACK_BIAS - 1 - span,
+            _ => -PACK_BIAS + (trial as i64 * 7_919_993) % (2 * PACK_BIAS - span),
+        };
+        let coordinate = |rng: &mut rand::rngs::StdRng, trial| match rng.random_range(0..5) {
+            0 => base(trial),
+            1 => base(trial) + span,
+            _ => base(trial) + span / 2 + rng.random_range(-4..4) * 256,
+        };
+        assert_packing_matches(9, coordinate, narrow_boundary_edges);
         let (a, b) = ([0, 0, 0], [256, 0, 0]);
         for far in [[span + 1, 0, 0], [0, -span - 1, 0]] {
             assert_eq!(narrow_boundary_edges(&[[a, b, far]], &[]), None);
