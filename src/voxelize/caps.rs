@@ -761,6 +761,9 @@ mod tests {
         f.iter().map(|t| t.map(|i| v[i])).collect()
     }
 
+    /// A boundary by packed uses (`None` where the packing declines).
+    type Packing = fn(&[SurfaceTriangle], &[SurfaceTriangle]) -> Option<Vec<(u128, u128)>>;
+
     /// A packing finds the same boundary as the generic sort on 200 random
     /// soups (two slices) over small random lattices whose points have
     /// coordinates drawn by `coordinate` (few points, so that edges repeat,
@@ -768,7 +771,7 @@ mod tests {
     fn assert_packing_matches(
         seed: u64,
         coordinate: impl Fn(&mut rand::rngs::StdRng, usize) -> i64,
-        packing: fn(&[SurfaceTriangle], &[SurfaceTriangle]) -> Option<Vec<(u128, u128)>>,
+        packing: Packing,
     ) {
         use rand::{Rng, SeedableRng};
         let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
