@@ -529,13 +529,20 @@ fn render_with(
         .into_par_iter()
         .map(|q| Columns::of(&f, q))
         .collect();
+    let shear_job = |table| Shear {
+        scene,
+        f: &f,
+        columns: &columns,
+        table,
+        slab_cap,
+    };
     let (mut samples, mut image) = (0u64, Intermediate::new(&f, table.as_ref()));
     match &mut image {
         Intermediate::Mip(m) => {
             samples += m
                 .par_iter_mut()
                 .enumerate()
-                .map(|(band, acc)| shear_as(tuning, scene, &f, &columns, band * BAND, None, acc))
+                .map(|(band, acc)| shear_as(tuning, &shear_job(None), band * BAND, acc))
                 .sum::<u64>();
         }
         Intermediate::Composite(c) => {
@@ -547,8 +554,7 @@ fn render_with(
                 .enumerate()
                 .map(|(band, acc)| {
                     fill_stretches(scene, &f, band * BAND, y_ortho, acc);
-                    let table = table.as_ref();
-                    shear_as(tuning, scene, &f, &columns, band * BAND, table, acc)
+                    shear_as(tuning, &shear_job(table.as_ref()), band * BAND, acc)
                 })
                 .sum::<u64>();
         }
@@ -626,25 +632,28 @@ fn fill_stretches(
     }
 }
 
+/// What the shear of every band reads: the volume, the factorization,
+/// each slice's columns, the compositing table (none for MIP) and the
+/// slab's cap in bytes.
+#[derive(Clone, Copy)]
+struct Shear<'a> {
+    scene: &'a VolumeScene,
+    f: &'a Factor,
+    columns: &'a [Columns],
+    table: Option<&'a TfTable>,
+    slab_cap: usize,
+}
+
 /// Takes every slice's samples for the intermediate rows `j0..` of `acc`,
 /// front to back; returns the samples taken.
-fn shear_as<A: Accumulate>(
-    tuning: Tuning,
-    scene: &VolumeScene,
-    f: &Factor,
-    columns: &[Columns],
-    j0: usize,
-    table: Option<&TfTable>,
-    acc: &mut A,
-) -> u64 {
-    let cap = tuning.slab_cap;
+fn shear_as<A: Accumulate>(tuning: Tuning, job: &Shear, j0: usize, acc: &mut A) -> u64 {
     #[cfg(target_arch = "x86_64")]
     if tuning.avx2 {
         // SAFETY: the CPU runs AVX2 (`Tuning::avx2` is set only where
         // detected); the code is the portable `shear`, in wider registers.
-        return unsafe { shear_avx2(scene, f, columns, j0, table, cap, acc) };
+        return unsafe { shear_avx2(job, j0, acc) };
     }
-    shear(scene, f, columns, j0, table, cap, acc)
+    shear(job, j0, acc)
 }
 
 /// [`shear`] compiled for AVX2: the same operations in the same order, so
@@ -652,29 +661,20 @@ fn shear_as<A: Accumulate>(
 /// contracts `a·b + c`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn shear_avx2<A: Accumulate>(
-    scene: &VolumeScene,
-    f: &Factor,
-    columns: &[Columns],
-    j0: usize,
-    table: Option<&TfTable>,
-    slab_cap: usize,
-    acc: &mut A,
-) -> u64 {
-    shear(scene, f, columns, j0, table, slab_cap, acc)
+fn shear_avx2<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
+    shear(job, j0, acc)
 }
 
 /// The body of [`shear_as`], inlined into each of its compilations.
 #[inline(always)]
-fn shear<A: Accumulate>(
-    scene: &VolumeScene,
-    f: &Factor,
-    columns: &[Columns],
-    j0: usize,
-    table: Option<&TfTable>,
-    slab_cap: usize,
-    acc: &mut A,
-) -> u64 {
+fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
+    let Shear {
+        scene,
+        f,
+        columns,
+        table,
+        slab_cap,
+    } = *job;
     let rows = BAND.min(f.h - j0);
     let (na, nb) = (f.dims[f.a], f.dims[f.b]);
     // A slice row: its `na` samples and a copy of the last, so the column
