@@ -189,11 +189,10 @@ def closed_mesh(name, strict=True):
     strict=False a mesh whose boundary the fans cannot close (a vertex
     starting two boundary edges, as on the teapot's lid and spout) is
     returned as it is, its own holes kept (a note on stderr)."""
-    V, F = load_obj(MESHES.get(name, name))
-    nb = len(boundary_halfedges(F))
+    V0, F0 = load_obj(MESHES.get(name, name))
+    nb = len(boundary_halfedges(F0))
     try:
-        if nb:
-            V, F = close_holes(V, F)
+        V, F = close_holes(V0, F0) if nb else (V0, F0)
         left = len(boundary_halfedges(F))
         if left:
             raise SystemExit(f"{name}: {left} boundary edges left after closing holes")
@@ -201,7 +200,7 @@ def closed_mesh(name, strict=True):
         if strict:
             raise
         print(f"{name}: holes kept as they are ({e})", file=sys.stderr)
-        V, F = load_obj(MESHES.get(name, name))
+        V, F = V0, F0
     return V, F, nb
 
 
