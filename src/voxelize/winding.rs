@@ -117,8 +117,9 @@ const U32: f64 = f32::EPSILON as f64 / 2.0;
 /// evaluating them in `f32` adds at most
 /// `γ₅·3√3 ≤ 26.1u` and `41u` times `|a||b||c|` (lengths to 2.5u, each dot
 /// product to `γ₃`, three additions of terms below `4|a||b||c|`). Sum
-/// `97.3u`: 128 leaves a margin. Guarded by
-/// `f32_near_field_holds_its_bound`.
+/// `97.3u`: 128 leaves a margin. Fused steps (the AVX2 + FMA path) round
+/// once where this counts two roundings, so the bound holds for them too.
+/// Guarded by `f32_near_field_holds_its_bound` (on the path the CPU runs).
 const NEAR_ROUNDING: f32 = 128.0 * f32::EPSILON / 2.0;
 
 /// The near-field kernel in `f32`: `Σ_t Ω_t(p_i)` (van Oosterom–Strackee
@@ -132,7 +133,7 @@ const NEAR_ROUNDING: f32 = 128.0 * f32::EPSILON / 2.0;
 /// across the triangle) `flat` is set, and an exact test must say. At most
 /// [`CHUNK`] triangles a call.
 #[inline(always)]
-fn near_kernel(
+fn near_kernel<const FUSED: bool>(
     tris: &[[[f32; 3]; 3]],
     p: &[[f32; LANES]; 3],
     s: f32,
@@ -153,25 +154,29 @@ fn near_kernel(
             let a = [t[0][0] - p[0][i], t[0][1] - p[1][i], t[0][2] - p[2][i]];
             let b = [t[1][0] - p[0][i], t[1][1] - p[1][i], t[1][2] - p[2][i]];
             let c = [t[2][0] - p[0][i], t[2][1] - p[1][i], t[2][2] - p[2][i]];
-            let dot = |u: [f32; 3], v: [f32; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+            let dot = |u: [f32; 3], v: [f32; 3]| {
+                madd::<FUSED>(u[2], v[2], madd::<FUSED>(u[1], v[1], u[0] * v[0]))
+            };
             let (la, lb, lc) = (dot(a, a).sqrt(), dot(b, b).sqrt(), dot(c, c).sqrt());
             let bxc = [
-                b[1] * c[2] - b[2] * c[1],
-                b[2] * c[0] - b[0] * c[2],
-                b[0] * c[1] - b[1] * c[0],
+                madd::<FUSED>(b[1], c[2], -(b[2] * c[1])),
+                madd::<FUSED>(b[2], c[0], -(b[0] * c[2])),
+                madd::<FUSED>(b[0], c[1], -(b[1] * c[0])),
             ];
             num[j][i] = dot(a, bxc);
             let abc = la * lb * lc;
-            den[j][i] = abc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
+            let den_ab = madd::<FUSED>(dot(a, b), lc, abc);
+            let den_bc = madd::<FUSED>(dot(b, c), la, den_ab);
+            den[j][i] = madd::<FUSED>(dot(c, a), lb, den_bc);
             bound[j][i] = NEAR_ROUNDING * ((la + s) * (lb + s) * (lc + s));
         }
     }
     for j in 0..tris.len() {
         for i in 0..LANES {
             let (num, den, bound) = (num[j][i], den[j][i], bound[j][i]);
-            acc[i] += 2.0 * atan2_f32(num, den);
+            acc[i] = madd::<FUSED>(2.0, atan2_f32::<FUSED>(num, den), acc[i]);
             // The same reciprocal as the arctangent's (one division).
-            err[i] += bound * (1.0 / num.abs().max(den.abs()));
+            err[i] = madd::<FUSED>(bound, 1.0 / num.abs().max(den.abs()), err[i]);
             // Only where `den ≤ E` too can rounding carry the angle across
             // atan2's cut at ±π.
             flat[i] |= (num.abs() <= bound) & (den <= bound);
@@ -190,7 +195,7 @@ const CHUNK: usize = 8;
 /// polynomial, without branches (selects), so that lanes vectorise: within
 /// [`FAST_ATAN2_F32_ERROR`] of the true angle of `(x, y)`.
 #[inline(always)]
-fn atan2_f32(y: f32, x: f32) -> f32 {
+fn atan2_f32<const FUSED: bool>(y: f32, x: f32) -> f32 {
     use std::f32::consts::{FRAC_PI_2, PI};
     let (ay, ax) = (y.abs(), x.abs());
     let (mn, mx) = (ay.min(ax), ay.max(ax));
@@ -198,11 +203,20 @@ fn atan2_f32(y: f32, x: f32) -> f32 {
     let a = if mx == 0.0 { 0.0 } else { mn * (1.0 / mx) };
     let s = a * a;
     let [c1, c3, c5, c7, c9, c11] = ATAN_POLY.map(|c| c as f32);
-    let r = a * (c1 + s * (c3 + s * (c5 + s * (c7 + s * (c9 + s * c11)))));
+    let m = |c: f32, r: f32| madd::<FUSED>(s, r, c);
+    let r = a * m(c1, m(c3, m(c5, m(c7, m(c9, c11)))));
     let r = if ay > ax { FRAC_PI_2 - r } else { r };
     let r = if x < 0.0 { PI - r } else { r };
     let r = if mx == 0.0 { 0.0 } else { r };
     if y < 0.0 { -r } else { r }
+}
+
+/// `a·b + c`: fused (one rounding) where `FUSED`, else a product and a sum.
+/// The kernel's bounds hold either way (a fused step rounds once where the
+/// other rounds twice); the unfused form keeps the portable path's bits.
+#[inline(always)]
+fn madd<const FUSED: bool>(a: f32, b: f32, c: f32) -> f32 {
+    if FUSED { a.mul_add(b, c) } else { a * b + c }
 }
 
 /// What [`near_sums`] sums: the leaves `near` of `tree` at the points `p`
@@ -225,7 +239,7 @@ type NearTotals = ([f64; LANES], [f64; LANES], [bool; LANES], usize);
 /// `f32`, through [`near_kernel`] [`CHUNK`] at a time, each chunk's lane
 /// sums and rounding terms added to `f64` totals.
 #[inline(always)]
-fn near_sums(q: &NearQuery) -> NearTotals {
+fn near_sums<const FUSED: bool>(q: &NearQuery) -> NearTotals {
     let o = q.o;
     let mut sum = [0.0; LANES];
     let mut err = [0.0; LANES];
@@ -240,7 +254,7 @@ fn near_sums(q: &NearQuery) -> NearTotals {
             let tris = &chunk[..tris.len()];
             count += tris.len();
             let (mut part, mut part_err) = ([0.0f32; LANES], [0.0f32; LANES]);
-            near_kernel(tris, &q.p, q.s, &mut part, &mut part_err, &mut flat);
+            near_kernel::<FUSED>(tris, &q.p, q.s, &mut part, &mut part_err, &mut flat);
             for i in 0..LANES {
                 sum[i] += f64::from(part[i]);
                 err[i] += f64::from(part_err[i]);
@@ -250,14 +264,46 @@ fn near_sums(q: &NearQuery) -> NearTotals {
     (sum, err, flat, count)
 }
 
-/// [`near_sums`] compiled for AVX2: the kernel's eight lanes in one
-/// register, and the corners' conversions and the totals vectorised with it
-/// (compiled apart from the kernel they cost ~10% of a scanned mesh's near
-/// field, `docs/performance-notes.md`).
+/// [`near_sums`] compiled for AVX2 and FMA: the kernel's eight lanes in one
+/// register, its products and sums fused, and the corners' conversions and
+/// the totals vectorised with it (compiled apart from the kernel they cost
+/// ~10% of a scanned mesh's near field, `docs/performance-notes.md`).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 fn near_sums_avx2(q: &NearQuery) -> NearTotals {
-    near_sums(q)
+    near_sums::<true>(q)
+}
+
+/// The compiled forms of the near-field kernel: portable (products and sums
+/// rounded apart, as on every CPU), or AVX2 with fused multiply-adds where
+/// the CPU has both.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum NearPath {
+    Portable,
+    #[cfg(target_arch = "x86_64")]
+    Avx2Fma,
+}
+
+impl NearPath {
+    /// The fastest form this CPU runs.
+    fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            return NearPath::Avx2Fma;
+        }
+        NearPath::Portable
+    }
+
+    /// Every form this CPU runs (the tests check each).
+    #[cfg(test)]
+    fn available() -> Vec<Self> {
+        let mut paths = vec![NearPath::Portable];
+        if NearPath::detect() != NearPath::Portable {
+            paths.push(NearPath::detect());
+        }
+        paths
+    }
 }
 
 /// Points evaluated together by [`WindingTree::near_lanes`]: a 2³ cube of
@@ -584,8 +630,11 @@ impl WindingTree {
     }
 
     /// The winding number of the leaves `near` at eight points at once, in
-    /// `f32` vector lanes (AVX2 where the CPU has it, the same arithmetic
-    /// and values without), with a rigorous bound of its error at each
+    /// `f32` vector lanes (AVX2 with fused multiply-adds where the CPU has
+    /// both; without, products and sums rounded apart, so the last bits may
+    /// differ between such CPUs, each within the bound; a verdict hangs on
+    /// them only where the solid fill keeps a last estimate, within that
+    /// fill's ambiguity), with a rigorous bound of its error at each
     /// point: `count · (2 · FAST_ATAN2_F32_ERROR + 2π·7.01u)` for the
     /// arctangents and the `f32` sums of up to eight triangles (each added
     /// to an `f64` total), plus `π` times each triangle's rounding ratio
@@ -594,6 +643,11 @@ impl WindingTree {
     /// centre of their box must be exact in `f32` (the solid fill's 2³
     /// cubes: ±½ voxel per axis).
     pub fn near_lanes(&self, near: &[u32], q: &[DVec3; LANES]) -> NearLanes {
+        self.near_lanes_on(near, q, NearPath::detect())
+    }
+
+    /// [`WindingTree::near_lanes`] on a given compiled form of the kernel.
+    fn near_lanes_on(&self, near: &[u32], q: &[DVec3; LANES], path: NearPath) -> NearLanes {
         // The origin: the points' box centre (a 2³ cube's offsets are ±½).
         let (qlo, qhi) = q
             .iter()
@@ -610,16 +664,14 @@ impl WindingTree {
             p,
             s,
         };
-        #[cfg(target_arch = "x86_64")]
-        let (sum, err, flat, count) = if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU runs AVX2 (checked here); the loop uses no
-            // intrinsics, only the wider registers.
-            unsafe { near_sums_avx2(&query) }
-        } else {
-            near_sums(&query)
+        let (sum, err, flat, count) = match path {
+            NearPath::Portable => near_sums::<false>(&query),
+            // SAFETY: `NearPath::detect` found AVX2 and FMA on this CPU; the
+            // loop uses no intrinsics, only the wider registers and fused
+            // steps.
+            #[cfg(target_arch = "x86_64")]
+            NearPath::Avx2Fma => unsafe { near_sums_avx2(&query) },
         };
-        #[cfg(not(target_arch = "x86_64"))]
-        let (sum, err, flat, count) = near_sums(&query);
         let per_triangle = 2.0 * FAST_ATAN2_F32_ERROR + std::f64::consts::TAU * 7.01 * U32;
         NearLanes {
             sum: sum.map(|v| v / FOUR_PI),
@@ -1411,24 +1463,26 @@ mod tests {
             let q: [DVec3; LANES] = std::array::from_fn(|k| {
                 lo + DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, (k >> 2) as f64)
             });
-            let near = tree.near_lanes(&[0], &q);
-            for (k, &qk) in q.iter().enumerate() {
-                if tree.point(qk, 0.0).is_none() {
-                    continue; // on a triangle: undefined
+            for path in NearPath::available() {
+                let near = tree.near_lanes_on(&[0], &q, path);
+                for (k, &qk) in q.iter().enumerate() {
+                    if tree.point(qk, 0.0).is_none() {
+                        continue; // on a triangle: undefined
+                    }
+                    let exact = tree.near_sum(&[0], qk);
+                    if near.flat[k] {
+                        continue;
+                    }
+                    checked += 1;
+                    let gap = (near.sum[k] - exact).abs();
+                    assert!(
+                        gap <= near.error[k],
+                        "trial {trial} lane {k} ({path:?}): {} vs {exact}, bound {}",
+                        near.sum[k],
+                        near.error[k]
+                    );
+                    tight += usize::from(near.error[k] < 1e-4);
                 }
-                let exact = tree.near_sum(&[0], qk);
-                if near.flat[k] {
-                    continue;
-                }
-                checked += 1;
-                let gap = (near.sum[k] - exact).abs();
-                assert!(
-                    gap <= near.error[k],
-                    "trial {trial} lane {k}: {} vs {exact}, bound {}",
-                    near.sum[k],
-                    near.error[k]
-                );
-                tight += usize::from(near.error[k] < 1e-4);
             }
         }
         assert!(checked > 20_000 && tight > checked / 2, "{checked} {tight}");
@@ -1463,7 +1517,9 @@ mod tests {
             for r in [1e-30, 1e-3, 1.0, 7.5e8, 1e30] {
                 let (y, x) = ((r * t.sin()) as f32, (r * t.cos()) as f32);
                 let want = f64::from(y).atan2(f64::from(x));
-                worst = worst.max((f64::from(atan2_f32(y, x)) - want).abs());
+                for got in [atan2_f32::<false>(y, x), atan2_f32::<true>(y, x)] {
+                    worst = worst.max((f64::from(got) - want).abs());
+                }
             }
         }
         for (y, x) in [(0.0, 1.0), (0.0, -1.0), (1.0, 0.0), (-1.0, 0.0), (0.0, 0.0)] {
@@ -1472,7 +1528,12 @@ mod tests {
             } else {
                 f64::atan2(y, x)
             };
-            worst = worst.max((f64::from(atan2_f32(y as f32, x as f32)) - want).abs());
+            for got in [
+                atan2_f32::<false>(y as f32, x as f32),
+                atan2_f32::<true>(y as f32, x as f32),
+            ] {
+                worst = worst.max((f64::from(got) - want).abs());
+            }
         }
         assert!(worst * 2.0 <= FAST_ATAN2_F32_ERROR, "worst {worst}");
     }
