@@ -119,7 +119,7 @@ const U32: f64 = f32::EPSILON as f64 / 2.0;
 /// product to `γ₃`, three additions of terms below `4|a||b||c|`). Sum
 /// `97.3u`: 128 leaves a margin. Fused steps (the AVX2 + FMA path) round
 /// once where this counts two roundings, so the bound holds for them too.
-/// Guarded by `f32_near_field_holds_its_bound` (on the path the CPU runs).
+/// Guarded by `f32_near_field_holds_its_bound` (on every form this CPU runs).
 const NEAR_ROUNDING: f32 = 128.0 * f32::EPSILON / 2.0;
 
 /// The near-field kernel in `f32`: `Σ_t Ω_t(p_i)` (van Oosterom–Strackee
