@@ -583,6 +583,9 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         times.push(rendered.1.render_ms);
         floor(&renderer);
         for _ in 1..args.reps {
+            // The repeated frame writes into the one before's buffers, as
+            // an interactive renderer redraws into its frame buffer.
+            rendered.0.recycle();
             rendered = renderer.render(&xf, &cam, &opts)?;
             times.push(rendered.1.render_ms);
             floor(&renderer);
@@ -599,6 +602,8 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         }
         if first.is_none() {
             first = Some((img, stats, cam));
+        } else {
+            img.recycle();
         }
     }
     if let Some(b) = &bar {
