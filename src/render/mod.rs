@@ -260,11 +260,19 @@ impl RenderImage {
     /// let occ = OccupancyGrid::new(&grid, [9, 9, 9], MemoryLimit::DEFAULT).unwrap();
     /// let xf = GridTransform::from_frame(&GridFrame::new(DVec3::ZERO, 1.0, [9, 9, 9])).unwrap();
     /// let cam = Camera::perspective(DVec3::new(4.5, 4.5, 30.0), DVec3::splat(4.5), DVec3::Y, 20.0);
-    /// let opts = RenderOptions { width: 32, height: 32, ..RenderOptions::default() };
+    /// let opts = RenderOptions { width: 31, height: 17, ..RenderOptions::default() };
     /// let (first, _) = render_grid(&occ, &xf, &cam, &opts).unwrap();
-    /// first.clone().recycle();
+    /// // A used frame of that size, every pixel a hit somewhere else.
+    /// let mut used = first.clone();
+    /// used.color.fill([1.0; 4]);
+    /// used.depth.fill(0.0);
+    /// used.hit.fill(Some(IVec3::ZERO));
+    /// let buffer = used.color.as_ptr();
+    /// used.recycle();
     /// // The next frame of that size writes into those buffers, from a clean start.
-    /// assert_eq!(render_grid(&occ, &xf, &cam, &opts).unwrap().0, first);
+    /// let (next, _) = render_grid(&occ, &xf, &cam, &opts).unwrap();
+    /// assert_eq!(next.color.as_ptr(), buffer);
+    /// assert_eq!(next, first);
     /// ```
     pub fn recycle(self) {
         if let Ok(mut spare) = SPARE_FRAME.lock() {
