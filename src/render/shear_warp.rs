@@ -60,8 +60,8 @@ use super::bricks::BRICK;
 use super::opacity::{corrected_opacity_from_log, ln_one_minus};
 use super::volume::{EARLY_TERMINATION, grey, sample_color};
 use super::{
-    GridRay, ImageBand, RaySetup, RenderImage, RenderOptions, RenderStats, TransferFunction,
-    VolumeMode, VolumeOptions, VolumeScene,
+    GridRay, ImageBand, RaySetup, RenderImage, RenderOptions, RenderStats, RowRays,
+    TransferFunction, VolumeMode, VolumeOptions, VolumeScene, clip_hits,
 };
 use crate::camera::Camera;
 use crate::error::Result;
@@ -1165,30 +1165,55 @@ fn hit_at(f: &Factor, ray: &GridRay, q: u16) -> (f32, Option<IVec3>) {
 /// The warp of the image's rows `band·WARP_ROWS..`: returns the hits.
 #[inline(always)]
 fn warp_band(job: &Warp, band: usize, (color, depth, hit): ImageBand) -> u64 {
+    let Warp { setup, f, w, .. } = *job;
+    let w = w as usize;
+    let (lo, hi) = setup.clip_box();
+    let mut rays = RowRays::default();
+    let (mut fis, mut fjs, mut meets) = (vec![0f64; w], vec![0f64; w], vec![false; w]);
+    let mut hits = 0u64;
+    let rows = color
+        .chunks_mut(w)
+        .zip(depth.chunks_mut(w))
+        .zip(hit.chunks_mut(w));
+    for (row, ((color, depth), hit)) in rows.enumerate() {
+        setup.row_rays((band * WARP_ROWS + row) as u32, &mut rays);
+        // The row's geometry first, column after column without a branch
+        // (the rays themselves in vector lanes): whether each ray meets
+        // the box and the base plane, and where it meets the plane.
+        let [o, d] = [&rays.o, &rays.d].map(|v| v.each_ref().map(|v| &v[..w]));
+        let (meets, fis, fjs) = (&mut meets[..w], &mut fis[..w], &mut fjs[..w]);
+        for x in 0..w {
+            let (oo, dd) = ([o[0][x], o[1][x], o[2][x]], [d[0][x], d[1][x], d[2][x]]);
+            meets[x] = clip_hits(oo, dd, lo, hi) & (d[f.c][x] != 0.0);
+            let t = (f.front as f64 - o[f.c][x]) / d[f.c][x];
+            fis[x] = o[f.a][x] + d[f.a][x] * t - f.u0;
+            fjs[x] = o[f.b][x] + d[f.b][x] * t - f.v0;
+        }
+        hits += warp_row(job, &rays, (fis, fjs, meets), (color, depth, hit));
+    }
+    hits
+}
+
+/// The pixels of one image row from its rays' crossings `(fi, fj)` of
+/// the base plane (intermediate pixel units), for the rays that `meet`
+/// the box and the plane; returns the hits.
+#[inline(always)]
+fn warp_row(
+    job: &Warp,
+    rays: &RowRays,
+    (fis, fjs, meets): (&[f64], &[f64], &[bool]),
+    (color, depth, hit): ImageBand,
+) -> u64 {
     let Warp {
-        setup,
-        f,
-        image,
-        vopts,
-        w,
+        f, image, vopts, ..
     } = *job;
     let mut hits = 0u64;
-    for (n, ((c, d), hv)) in color.iter_mut().zip(depth).zip(hit).enumerate() {
-        let (x, y) = (
-            (n % w as usize) as u32,
-            (band * WARP_ROWS + n / w as usize) as u32,
-        );
-        let ray = setup.ray(x, y);
-        if ray.clip(setup.lo, setup.hi).is_none() {
+    for (x, ((c, d), hv)) in color.iter_mut().zip(depth).zip(hit).enumerate() {
+        if !meets[x] {
             continue;
         }
-        let dc = ray.d[f.c];
-        if dc == 0.0 {
-            continue;
-        }
-        let t = (f.front as f64 - ray.o[f.c]) / dc;
-        let fi = ray.o[f.a] + ray.d[f.a] * t - f.u0;
-        let fj = ray.o[f.b] + ray.d[f.b] * t - f.v0;
+        let ray = rays.ray(x);
+        let (fi, fj) = (fis[x], fjs[x]);
         let (i0, j0) = (fi.floor(), fj.floor());
         let (wi, wj) = ((fi - i0) as f32, (fj - j0) as f32);
         let (i0, j0) = (i0 as i64, j0 as i64);
