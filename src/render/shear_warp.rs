@@ -197,6 +197,16 @@ impl Factor {
         }
     }
 
+    /// The row coordinate `b` where intermediate row `j` crosses the slice
+    /// of offset `tb` and scale `1/inv` ([`Factor::slice`]), if it crosses
+    /// the slice's voxel squares: the one test of whether a row takes a
+    /// sample from a slice (the shear and the MIP's brick skip both ask).
+    #[inline(always)]
+    fn slice_row(&self, j: usize, tb: f64, inv: f64) -> Option<f64> {
+        let b = (self.v0 + j as f64 - tb) * inv;
+        (b >= -0.5 && b <= self.dims[self.b] as f64 - 0.5).then_some(b)
+    }
+
     /// The grid point of slice `k` on the intermediate ray of pixel
     /// `(i, j)` (its base-plane point moved along the view).
     fn point(&self, i: f64, j: f64, k: i32) -> DVec3 {
@@ -820,10 +830,9 @@ fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
         held[0].b = -1;
         held[1].b = -1;
         for r in 0..rows {
-            let b = (f.v0 + (j0 + r) as f64 - tb) * inv;
-            if !(b >= -0.5 && b <= nb as f64 - 0.5) {
+            let Some(b) = f.slice_row(j0 + r, tb, inv) else {
                 continue;
-            }
+            };
             acc.cover(r, cols.lo, cols.hi);
             if spans.is_empty() || !acc.live(r, cols.lo, cols.hi) {
                 continue;
@@ -1017,8 +1026,7 @@ impl Layer {
             let (s, _, tb) = f.slice(kk);
             let inv = 1.0 / s;
             for r in 0..rows {
-                let b = (f.v0 + (j0 + r) as f64 - tb) * inv;
-                if b >= -0.5 && b <= nb as f64 - 0.5 {
+                if f.slice_row(j0 + r, tb, inv).is_some() {
                     mask |= 1 << r;
                 }
             }
