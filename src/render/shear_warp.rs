@@ -806,6 +806,16 @@ fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
     // runs; each slice's columns reading them (indexed from its `lo`).
     let bricks_a = (na as u32).div_ceil(BRICK as u32) as usize;
     let (mut live, mut runs, mut spans) = (vec![true; bricks_a], Vec::new(), Vec::new());
+    // Compositing: per brick row of the layer (`b >> 3`), the range of
+    // its bricks' values along `a`, found when first needed.
+    let mut brick_rows = vec![
+        None;
+        if table.is_some() {
+            (nb as usize).div_ceil(8)
+        } else {
+            0
+        }
+    ];
     let mut floor = vec![0f32; if skip { f.w } else { 0 }];
     let mut samples = 0;
     for q in 0..f.n {
@@ -821,6 +831,7 @@ fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
             if skip && acc.floor(extent.rows, &mut floor) {
                 live_bricks(scene, f, columns, &extent, &floor, &mut live);
             }
+            brick_rows.fill(None);
             runs.clear();
             let mut t = 0;
             while t < bricks_a {
@@ -875,8 +886,12 @@ fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
                         }
                     };
                     let row = &mut held[slot];
+                    // The row's values lie in its bricks' range (wider
+                    // than the row's own, so a row pair is passed over as
+                    // transparent no more often than by its values).
                     let (mn, mx) = match table {
-                        Some(_) => value_range(&src[..na as usize]),
+                        Some(_) => *brick_rows[(want >> 3) as usize]
+                            .get_or_insert_with(|| brick_row_range(scene, f, k, want)),
                         None => (f32::INFINITY, f32::NEG_INFINITY),
                     };
                     (row.min, row.max, row.b) = (mn, mx, want);
@@ -1056,26 +1071,20 @@ fn lerp_gathered_avx512(src: &[f32], a0: &[u32], fa: &[f32], out: &mut [f32]) {
     lerp_gathered(src, &a0[i..n], &fa[i..n], &mut out[i..n]);
 }
 
-/// The smallest and largest of `xs` (no NaN among them; `(+∞, −∞)` if
-/// empty), in eight independent lanes, which vectorise where one running
-/// pair would be a chain of dependent scalar comparisons.
-#[inline(always)]
-fn value_range(xs: &[f32]) -> (f32, f32) {
-    let (mut mn, mut mx) = ([f32::INFINITY; 8], [f32::NEG_INFINITY; 8]);
-    let chunks = xs.chunks_exact(8);
-    let tail = chunks.remainder();
-    for c in chunks {
-        for l in 0..8 {
-            mn[l] = if c[l] < mn[l] { c[l] } else { mn[l] };
-            mx[l] = if c[l] > mx[l] { c[l] } else { mx[l] };
-        }
-    }
-    for (l, &x) in tail.iter().enumerate() {
-        mn[l] = if x < mn[l] { x } else { mn[l] };
-        mx[l] = if x > mx[l] { x } else { mx[l] };
-    }
-    let fold = |v: [f32; 8], pick: fn(f32, f32) -> f32| v.into_iter().reduce(pick).unwrap();
-    (fold(mn, f32::min), fold(mx, f32::max))
+/// The smallest and largest value of the bricks along `a` that hold row
+/// `b` of slice `k` (`(+∞, −∞)` for none): a range holding every sample
+/// of the row, from the bricks' stored ranges rather than a pass over the
+/// row.
+fn brick_row_range(scene: &VolumeScene, f: &Factor, k: i32, b: i32) -> (f32, f32) {
+    let bricks = scene.bricks();
+    let ranges = bricks.ranges();
+    let mut at = IVec3::ZERO;
+    (at[f.b], at[f.c]) = (b >> 3, k >> 3);
+    (0..bricks.brick_dims()[f.a]).fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), t| {
+        at[f.a] = t;
+        let r = &ranges[bricks.brick_index(at)];
+        (lo.min(r.min[0]), hi.max(r.max[0]))
+    })
 }
 
 /// Floats a band's [`Slab`] may hold (4 MiB); a layer needing more is read
