@@ -443,6 +443,8 @@ struct CompositeBand<'a> {
     /// [`EARLY_TERMINATION`].
     done: Vec<bool>,
     table: &'a TfTable,
+    /// Look the table up by AVX-512 gathers ([`lookup_avx512`]; detected).
+    avx512: bool,
 }
 
 /// Pixels per chunk of a compositing row: a chunk whose pixels have all
@@ -460,11 +462,21 @@ impl CompositeBand<'_> {
         // The table's entries first (loads by index), then the arithmetic
         // over contiguous lanes, which vectorises.
         let (mut tau, mut ln_tau, mut col) = ([0f32; CHUNK], [0f32; CHUNK], [[0f32; CHUNK]; 3]);
-        for (k, &s) in vals[..n].iter().enumerate() {
-            let e = t.entry(s);
-            [tau[k], ln_tau[k]] = t.tau[e];
-            let c = t.color[e];
-            (col[0][k], col[1][k], col[2][k]) = (c[0], c[1], c[2]);
+        #[cfg(target_arch = "x86_64")]
+        let gathered = self.avx512 && {
+            // SAFETY: `avx512` is set only where the CPU has AVX-512F.
+            unsafe { lookup_avx512(t, &vals[..n], &mut tau, &mut ln_tau, &mut col) };
+            true
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let gathered = false;
+        if !gathered {
+            for (k, &s) in vals[..n].iter().enumerate() {
+                let e = t.entry(s);
+                [tau[k], ln_tau[k]] = t.tau[e];
+                let c = t.color[e];
+                (col[0][k], col[1][k], col[2][k]) = (c[0], c[1], c[2]);
+            }
         }
         let [r, g, b, a] = &mut self.rgba;
         let (r, g, b, a) = (
@@ -487,6 +499,64 @@ impl CompositeBand<'_> {
             } else {
                 qs[k]
             };
+        }
+    }
+}
+
+/// The table's entries for `vals` (at most a [`CHUNK`]) as the scalar
+/// loop of [`CompositeBand::blend`] reads them, 16 lanes at a time: the
+/// entry index by the same `f32` operations, clamped as the scalar's
+/// saturating cast and `min` clamp it (NaN and negatives to entry 0, all
+/// beyond the table to its last), then five gathers. Called only where the
+/// CPU has AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn lookup_avx512(
+    t: &TfTable,
+    vals: &[f32],
+    tau: &mut [f32; CHUNK],
+    ln_tau: &mut [f32; CHUNK],
+    col: &mut [[f32; CHUNK]; 3],
+) {
+    use std::arch::x86_64::*;
+    let n = vals.len().min(CHUNK);
+    let (lo, scale, half) = (
+        _mm512_set1_ps(t.lo),
+        _mm512_set1_ps(t.scale),
+        _mm512_set1_ps(0.5),
+    );
+    let (zero, last) = (_mm512_setzero_ps(), _mm512_set1_ps((TF_TABLE - 1) as f32));
+    let (taus, colors) = (t.tau.as_ptr().cast::<f32>(), t.color.as_ptr().cast::<f32>());
+    assert!(t.tau.len() == TF_TABLE && t.color.len() == TF_TABLE);
+    for i in (0..n).step_by(16) {
+        let m: __mmask16 = if n - i >= 16 { !0 } else { (1 << (n - i)) - 1 };
+        // SAFETY: the mask covers lanes `i..n` only, within `vals` and the
+        // outputs (`n ≤ CHUNK`); the entry `e` is in `0..TF_TABLE` (clamped
+        // before the conversion), so `2e + 1 < 2·TF_TABLE` and `3e + 2 <
+        // 3·TF_TABLE` lie inside the tables (asserted lengths).
+        unsafe {
+            let s = _mm512_maskz_loadu_ps(m, vals.as_ptr().add(i));
+            let x = _mm512_add_ps(_mm512_mul_ps(_mm512_sub_ps(s, lo), scale), half);
+            // `max` yields its second operand for a NaN: entry 0.
+            let x = _mm512_min_ps(_mm512_max_ps(x, zero), last);
+            let e = _mm512_cvttps_epi32(x);
+            let e2 = _mm512_add_epi32(e, e);
+            let e3 = _mm512_add_epi32(e2, e);
+            let one = _mm512_set1_epi32(1);
+            let gather =
+                |base: *const f32, idx: __m512i| _mm512_mask_i32gather_ps::<4>(zero, m, idx, base);
+            let store = |out: &mut [f32; CHUNK], v: __m512| {
+                _mm512_mask_storeu_ps(out.as_mut_ptr().add(i), m, v)
+            };
+            store(tau, gather(taus, e2));
+            store(ln_tau, gather(taus, _mm512_add_epi32(e2, one)));
+            let [r, g, b] = col;
+            store(r, gather(colors, e3));
+            store(g, gather(colors, _mm512_add_epi32(e3, one)));
+            store(
+                b,
+                gather(colors, _mm512_add_epi32(e3, _mm512_add_epi32(one, one))),
+            );
         }
     }
 }
@@ -629,7 +699,11 @@ fn render_with(
         #[cfg(not(target_arch = "x86_64"))]
         avx512: false,
     };
-    let (mut samples, mut image) = (0u64, Intermediate::new(&f, table.as_ref()));
+    #[cfg(target_arch = "x86_64")]
+    let avx512 = tuning.avx512;
+    #[cfg(not(target_arch = "x86_64"))]
+    let avx512 = false;
+    let (mut samples, mut image) = (0u64, Intermediate::new(&f, table.as_ref(), avx512));
     match &mut image {
         Intermediate::Mip(m) => {
             samples += m
@@ -671,7 +745,7 @@ enum Intermediate<'a> {
 }
 
 impl<'a> Intermediate<'a> {
-    fn new(f: &Factor, table: Option<&'a TfTable>) -> Self {
+    fn new(f: &Factor, table: Option<&'a TfTable>, avx512: bool) -> Self {
         let bands = f.h.div_ceil(BAND);
         let len = |band: usize| f.w * BAND.min(f.h - band * BAND);
         match table {
@@ -694,6 +768,7 @@ impl<'a> Intermediate<'a> {
                         seen: vec![false; len(band)],
                         done: vec![false; len(band) / f.w * f.w.div_ceil(CHUNK)],
                         table,
+                        avx512,
                     })
                     .collect(),
             ),
@@ -1611,6 +1686,64 @@ mod tests {
             }
         }
         assert!(slabbed >= 30, "{slabbed} views factorized");
+    }
+
+    /// The gathered table look-up reads the entries the scalar one reads,
+    /// for every length up to a chunk and samples of every kind: inside
+    /// the table, on its ends, beyond them, ±∞, NaN, ±0, subnormal.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn gathered_lookup_is_the_scalar() {
+        if !std::arch::is_x86_feature_detected!("avx512f") {
+            eprintln!("no AVX-512F here: the gathered look-up is not run");
+            return;
+        }
+        let mut rng = StdRng::seed_from_u64(37);
+        let window = (-2.0, 5.0);
+        let o = VolumeOptions::with_window(VolumeMode::Composite, window);
+        let t = TfTable::new(&o.transfer, window);
+        let special = [
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            0.0,
+            -0.0,
+            1e-42,
+            -2.0,
+            5.0,
+            3e38,
+            -3e38,
+            t.lo,
+            t.lo + (TF_TABLE - 1) as f32 / t.scale,
+        ];
+        let mut ends = 0;
+        for _ in 0..2_000 {
+            let n = rng.random_range(0..=CHUNK);
+            let vals: Vec<f32> = (0..n)
+                .map(|_| match rng.random_range(0..3) {
+                    0 => special[rng.random_range(0..special.len())],
+                    _ => rng.random_range(-4.0..7.0),
+                })
+                .collect();
+            let mut want = ([0f32; CHUNK], [0f32; CHUNK], [[0f32; CHUNK]; 3]);
+            for (k, &s) in vals.iter().enumerate() {
+                let e = t.entry(s);
+                ends += usize::from(e == 0 || e == TF_TABLE - 1);
+                [want.0[k], want.1[k]] = t.tau[e];
+                (want.2[0][k], want.2[1][k], want.2[2][k]) =
+                    (t.color[e][0], t.color[e][1], t.color[e][2]);
+            }
+            let mut got = ([0f32; CHUNK], [0f32; CHUNK], [[0f32; CHUNK]; 3]);
+            // SAFETY: AVX-512F is detected above.
+            unsafe { lookup_avx512(&t, &vals, &mut got.0, &mut got.1, &mut got.2) };
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&got.0), bits(&want.0), "{vals:?}");
+            assert_eq!(bits(&got.1), bits(&want.1), "{vals:?}");
+            for c in 0..3 {
+                assert_eq!(bits(&got.2[c]), bits(&want.2[c]), "{vals:?}");
+            }
+        }
+        assert!(ends > 1_000, "{ends} samples at the table's ends");
     }
 
     /// The permuted resampling equals the scalar one bit for bit on
