@@ -226,8 +226,11 @@ impl Factor {
 struct TfTable {
     lo: f32,
     scale: f32,
-    tau: Vec<[f32; 2]>,
-    color: Vec<[f32; 3]>,
+    /// Per entry `[ln(1 − τ), r, g, b]`, with `ln(1 − τ) = −∞` where
+    /// `τ ≥ 1` (the only use of `τ` itself, [`CompositeBand::blend`]'s
+    /// test for a full opacity, reads it back from that): one 16-byte
+    /// entry a sample.
+    entries: Vec<[f32; 4]>,
     /// Samples below `clear_below` or above `clear_above` are transparent.
     clear_below: f32,
     clear_above: f32,
@@ -241,17 +244,22 @@ impl TfTable {
         let span = if hi > lo { hi - lo } else { 1.0 };
         let scale = (TF_TABLE - 1) as f32 / span;
         let value = |e: usize| lo + e as f32 / scale;
-        let tau: Vec<[f32; 2]> = (0..TF_TABLE)
-            .map(|e| {
-                let t = tf.opacity(value(e));
-                [t, if t < 1.0 { ln_one_minus(t) } else { 0.0 }]
+        let tau: Vec<f32> = (0..TF_TABLE).map(|e| tf.opacity(value(e))).collect();
+        let entries = tau
+            .iter()
+            .enumerate()
+            .map(|(e, &t)| {
+                let ln = if t < 1.0 {
+                    ln_one_minus(t)
+                } else {
+                    f32::NEG_INFINITY
+                };
+                let [r, g, b] = sample_color(tf, window, value(e));
+                [ln, r, g, b]
             })
             .collect();
-        let color = (0..TF_TABLE)
-            .map(|e| sample_color(tf, window, value(e)))
-            .collect();
-        let first = tau.iter().position(|t| t[0] > 0.0);
-        let last = tau.iter().rposition(|t| t[0] > 0.0);
+        let first = tau.iter().position(|&t| t > 0.0);
+        let last = tau.iter().rposition(|&t| t > 0.0);
         let (clear_below, clear_above) = match (first, last) {
             (Some(f), Some(l)) => (lo + (f as f32 - 0.5) / scale, lo + (l as f32 + 0.5) / scale),
             _ => (f32::INFINITY, f32::NEG_INFINITY),
@@ -259,8 +267,7 @@ impl TfTable {
         TfTable {
             lo,
             scale,
-            tau,
-            color,
+            entries,
             clear_below,
             clear_above,
         }
@@ -461,21 +468,18 @@ impl CompositeBand<'_> {
         let t = self.table;
         // The table's entries first (loads by index), then the arithmetic
         // over contiguous lanes, which vectorises.
-        let (mut tau, mut ln_tau, mut col) = ([0f32; CHUNK], [0f32; CHUNK], [[0f32; CHUNK]; 3]);
+        let (mut ln_tau, mut col) = ([0f32; CHUNK], [[0f32; CHUNK]; 3]);
         #[cfg(target_arch = "x86_64")]
         let gathered = self.avx512 && {
             // SAFETY: `avx512` is set only where the CPU has AVX-512F.
-            unsafe { lookup_avx512(t, &vals[..n], &mut tau, &mut ln_tau, &mut col) };
+            unsafe { lookup_avx512(t, &vals[..n], &mut ln_tau, &mut col) };
             true
         };
         #[cfg(not(target_arch = "x86_64"))]
         let gathered = false;
         if !gathered {
             for (k, &s) in vals[..n].iter().enumerate() {
-                let e = t.entry(s);
-                [tau[k], ln_tau[k]] = t.tau[e];
-                let c = t.color[e];
-                (col[0][k], col[1][k], col[2][k]) = (c[0], c[1], c[2]);
+                [ln_tau[k], col[0][k], col[1][k], col[2][k]] = t.entries[t.entry(s)];
             }
         }
         let [r, g, b, a] = &mut self.rgba;
@@ -487,7 +491,14 @@ impl CompositeBand<'_> {
         );
         let (qs, ys) = (&mut self.q[o..o + n], &self.y[o..o + n]);
         for k in 0..n {
-            let alpha = corrected_opacity_from_log(tau[k], ln_tau[k], ys[k]);
+            // `τ ≥ 1` exactly where the entry holds `ln(1 − τ) = −∞`; any
+            // `τ < 1` serves the others (the test is its only use).
+            let tau = if ln_tau[k] == f32::NEG_INFINITY {
+                1.0
+            } else {
+                0.0
+            };
+            let alpha = corrected_opacity_from_log(tau, ln_tau[k], ys[k]);
             let alpha = if a[k] < EARLY_TERMINATION { alpha } else { 0.0 };
             let wgt = (1.0 - a[k]) * alpha;
             r[k] += wgt * col[0][k];
@@ -507,14 +518,15 @@ impl CompositeBand<'_> {
 /// loop of [`CompositeBand::blend`] reads them, 16 lanes at a time: the
 /// entry index by the same `f32` operations, clamped as the scalar's
 /// saturating cast and `min` clamp it (NaN and negatives to entry 0, all
-/// beyond the table to its last), then five gathers. Called only where the
-/// CPU has AVX-512F.
+/// beyond the table to its last), then each entry's two halves
+/// (`[ln(1 − τ), r]`, `[g, b]`) by 64-bit gathers, eight lanes each, and
+/// two-register permutes that part the pairs. Called only where the CPU
+/// has AVX-512F.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 fn lookup_avx512(
     t: &TfTable,
     vals: &[f32],
-    tau: &mut [f32; CHUNK],
     ln_tau: &mut [f32; CHUNK],
     col: &mut [[f32; CHUNK]; 3],
 ) {
@@ -526,37 +538,51 @@ fn lookup_avx512(
         _mm512_set1_ps(0.5),
     );
     let (zero, last) = (_mm512_setzero_ps(), _mm512_set1_ps((TF_TABLE - 1) as f32));
-    let (taus, colors) = (t.tau.as_ptr().cast::<f32>(), t.color.as_ptr().cast::<f32>());
-    assert!(t.tau.len() == TF_TABLE && t.color.len() == TF_TABLE);
+    // Entry `e`'s halves are the `f64`s `2e` and `2e + 1`.
+    let halves = t.entries.as_ptr().cast::<f64>();
+    assert!(t.entries.len() == TF_TABLE);
+    // Lanes 0..16 of two registers of pairs: the first of each pair, and
+    // the second.
+    let firsts = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+    let seconds = _mm512_add_epi32(firsts, _mm512_set1_epi32(1));
     for i in (0..n).step_by(16) {
         let m: __mmask16 = if n - i >= 16 { !0 } else { (1 << (n - i)) - 1 };
+        let (m_lo, m_hi) = (m as __mmask8, (m >> 8) as __mmask8);
         // SAFETY: the mask covers lanes `i..n` only, within `vals` and the
         // outputs (`n ≤ CHUNK`); the entry `e` is in `0..TF_TABLE` (clamped
-        // before the conversion), so `2e + 1 < 2·TF_TABLE` and `3e + 2 <
-        // 3·TF_TABLE` lie inside the tables (asserted lengths).
+        // before the conversion), so the halves `2e`, `2e + 1` lie inside
+        // the table's `2·TF_TABLE` (asserted length); masked-off lanes
+        // load nothing.
         unsafe {
             let s = _mm512_maskz_loadu_ps(m, vals.as_ptr().add(i));
             let x = _mm512_add_ps(_mm512_mul_ps(_mm512_sub_ps(s, lo), scale), half);
             // `max` yields its second operand for a NaN: entry 0.
             let x = _mm512_min_ps(_mm512_max_ps(x, zero), last);
-            let e = _mm512_cvttps_epi32(x);
-            let e2 = _mm512_add_epi32(e, e);
-            let e3 = _mm512_add_epi32(e2, e);
+            let e2 = _mm512_slli_epi32::<1>(_mm512_cvttps_epi32(x));
             let one = _mm512_set1_epi32(1);
-            let gather =
-                |base: *const f32, idx: __m512i| _mm512_mask_i32gather_ps::<4>(zero, m, idx, base);
+            let gather = |idx: __m512i| {
+                let (lo8, hi8) = (
+                    _mm512_castsi512_si256(idx),
+                    _mm512_extracti64x4_epi64::<1>(idx),
+                );
+                let a = _mm512_mask_i32gather_pd::<8>(_mm512_setzero_pd(), m_lo, lo8, halves);
+                let b = _mm512_mask_i32gather_pd::<8>(_mm512_setzero_pd(), m_hi, hi8, halves);
+                let (a, b) = (_mm512_castpd_ps(a), _mm512_castpd_ps(b));
+                (
+                    _mm512_permutex2var_ps(a, firsts, b),
+                    _mm512_permutex2var_ps(a, seconds, b),
+                )
+            };
             let store = |out: &mut [f32; CHUNK], v: __m512| {
                 _mm512_mask_storeu_ps(out.as_mut_ptr().add(i), m, v)
             };
-            store(tau, gather(taus, e2));
-            store(ln_tau, gather(taus, _mm512_add_epi32(e2, one)));
-            let [r, g, b] = col;
-            store(r, gather(colors, e3));
-            store(g, gather(colors, _mm512_add_epi32(e3, one)));
-            store(
-                b,
-                gather(colors, _mm512_add_epi32(e3, _mm512_add_epi32(one, one))),
-            );
+            let (ln, r) = gather(e2);
+            let (g, b) = gather(_mm512_add_epi32(e2, one));
+            store(ln_tau, ln);
+            let [rs, gs, bs] = col;
+            store(rs, r);
+            store(gs, g);
+            store(bs, b);
         }
     }
 }
@@ -1688,6 +1714,31 @@ mod tests {
         assert!(slabbed >= 30, "{slabbed} views factorized");
     }
 
+    /// The packed table's `ln(1 − τ)` (`−∞` where `τ ≥ 1`) gives, through
+    /// the blend's test, the opacity `corrected_opacity` gives for the
+    /// entry's `τ`, bit for bit: every entry of a function with clear,
+    /// partial and fully opaque stretches, over stretches from tiny to
+    /// long.
+    #[test]
+    fn packed_entries_give_the_opacities() {
+        let tf = TransferFunction::parse("0:0,1:0.3,2:1,3:1,4:0.5:#ff8000,5:0").unwrap();
+        let t = TfTable::new(&tf, (0.0, 5.0));
+        let mut opaque = 0;
+        for (e, entry) in t.entries.iter().enumerate() {
+            let tau = tf.opacity(t.lo + e as f32 / t.scale);
+            opaque += usize::from(tau >= 1.0);
+            let ln = entry[0];
+            assert_eq!(ln == f32::NEG_INFINITY, tau >= 1.0, "entry {e}");
+            for y in [1e-6f32, 0.37, 1.0, 1.7320508, 40.0] {
+                let full = if ln == f32::NEG_INFINITY { 1.0 } else { 0.0 };
+                let got = corrected_opacity_from_log(full, ln, y);
+                let want = crate::render::corrected_opacity(tau, y);
+                assert_eq!(got.to_bits(), want.to_bits(), "entry {e}, y {y}");
+            }
+        }
+        assert!(opaque > 500, "{opaque} opaque entries");
+    }
+
     /// The gathered table look-up reads the entries the scalar one reads,
     /// for every length up to a chunk and samples of every kind: inside
     /// the table, on its ends, beyond them, ±∞, NaN, ±0, subnormal.
@@ -1700,8 +1751,9 @@ mod tests {
         }
         let mut rng = StdRng::seed_from_u64(37);
         let window = (-2.0, 5.0);
-        let o = VolumeOptions::with_window(VolumeMode::Composite, window);
-        let t = TfTable::new(&o.transfer, window);
+        // Clear, partial and opaque (`ln(1 − τ) = −∞`) entries, coloured.
+        let tf = TransferFunction::parse("-2:0,0:0.4:#2040ff,2:1,3:1:#ff0000,5:0.2").unwrap();
+        let t = TfTable::new(&tf, window);
         let special = [
             f32::NAN,
             f32::INFINITY,
@@ -1725,22 +1777,19 @@ mod tests {
                     _ => rng.random_range(-4.0..7.0),
                 })
                 .collect();
-            let mut want = ([0f32; CHUNK], [0f32; CHUNK], [[0f32; CHUNK]; 3]);
+            let mut want = ([0f32; CHUNK], [[0f32; CHUNK]; 3]);
             for (k, &s) in vals.iter().enumerate() {
                 let e = t.entry(s);
                 ends += usize::from(e == 0 || e == TF_TABLE - 1);
-                [want.0[k], want.1[k]] = t.tau[e];
-                (want.2[0][k], want.2[1][k], want.2[2][k]) =
-                    (t.color[e][0], t.color[e][1], t.color[e][2]);
+                [want.0[k], want.1[0][k], want.1[1][k], want.1[2][k]] = t.entries[e];
             }
-            let mut got = ([0f32; CHUNK], [0f32; CHUNK], [[0f32; CHUNK]; 3]);
+            let mut got = ([0f32; CHUNK], [[0f32; CHUNK]; 3]);
             // SAFETY: AVX-512F is detected above.
-            unsafe { lookup_avx512(&t, &vals, &mut got.0, &mut got.1, &mut got.2) };
+            unsafe { lookup_avx512(&t, &vals, &mut got.0, &mut got.1) };
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&got.0), bits(&want.0), "{vals:?}");
-            assert_eq!(bits(&got.1), bits(&want.1), "{vals:?}");
             for c in 0..3 {
-                assert_eq!(bits(&got.2[c]), bits(&want.2[c]), "{vals:?}");
+                assert_eq!(bits(&got.1[c]), bits(&want.1[c]), "{vals:?}");
             }
         }
         assert!(ends > 1_000, "{ends} samples at the table's ends");
