@@ -653,7 +653,9 @@ struct Tuning {
     skip: bool,
     #[cfg(target_arch = "x86_64")]
     avx2: bool,
-    /// Resample by AVX-512's two-register permutes ([`lerp_gathered`]).
+    /// The shear compiled for AVX-512 (with `avx2`), its perspective
+    /// resampling by permutes ([`lerp_gathered_avx512`]) and the transfer
+    /// table by gathers ([`lookup_avx512`]).
     #[cfg(target_arch = "x86_64")]
     avx512: bool,
 }
@@ -713,6 +715,10 @@ fn render_with(
         .into_par_iter()
         .map(|q| Columns::of(&f, q))
         .collect();
+    #[cfg(target_arch = "x86_64")]
+    let avx512 = tuning.avx512;
+    #[cfg(not(target_arch = "x86_64"))]
+    let avx512 = false;
     let shear_job = |table| Shear {
         scene,
         f: &f,
@@ -720,15 +726,8 @@ fn render_with(
         table,
         slab_cap,
         skip: tuning.skip,
-        #[cfg(target_arch = "x86_64")]
-        avx512: tuning.avx512,
-        #[cfg(not(target_arch = "x86_64"))]
-        avx512: false,
+        avx512,
     };
-    #[cfg(target_arch = "x86_64")]
-    let avx512 = tuning.avx512;
-    #[cfg(not(target_arch = "x86_64"))]
-    let avx512 = false;
     let (mut samples, mut image) = (0u64, Intermediate::new(&f, table.as_ref(), avx512));
     match &mut image {
         Intermediate::Mip(m) => {
@@ -1095,7 +1094,7 @@ fn live_bricks(
 /// gathers.
 ///
 /// Elsewhere (a perspective view's every slice) the columns gather:
-/// with `avx512`, 16 columns at a time by [`lerp_gathered`].
+/// with `avx512`, 16 columns at a time by [`lerp_gathered_avx512`].
 #[inline(always)]
 fn resample(
     src: &[f32],
