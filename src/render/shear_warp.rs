@@ -450,8 +450,8 @@ struct CompositeBand<'a> {
     /// [`EARLY_TERMINATION`].
     done: Vec<bool>,
     table: &'a TfTable,
-    /// Look the table up by AVX-512 gathers ([`lookup_avx512`]; detected).
-    avx512: bool,
+    /// Look the table up in AVX2 registers ([`lookup_avx2`]; detected).
+    avx2: bool,
 }
 
 /// Pixels per chunk of a compositing row: a chunk whose pixels have all
@@ -470,14 +470,14 @@ impl CompositeBand<'_> {
         // over contiguous lanes, which vectorises.
         let (mut ln_tau, mut col) = ([0f32; CHUNK], [[0f32; CHUNK]; 3]);
         #[cfg(target_arch = "x86_64")]
-        let gathered = self.avx512 && {
-            // SAFETY: `avx512` is set only where the CPU has AVX-512F.
-            unsafe { lookup_avx512(t, &vals[..n], &mut ln_tau, &mut col) };
+        let looked_up = self.avx2 && {
+            // SAFETY: `avx2` is set only where the CPU has AVX2.
+            unsafe { lookup_avx2(t, &vals[..n], &mut ln_tau, &mut col) };
             true
         };
         #[cfg(not(target_arch = "x86_64"))]
-        let gathered = false;
-        if !gathered {
+        let looked_up = false;
+        if !looked_up {
             for (k, &s) in vals[..n].iter().enumerate() {
                 [ln_tau[k], col[0][k], col[1][k], col[2][k]] = t.entries[t.entry(s)];
             }
@@ -515,74 +515,61 @@ impl CompositeBand<'_> {
 }
 
 /// The table's entries for `vals` (at most a [`CHUNK`]) as the scalar
-/// loop of [`CompositeBand::blend`] reads them, 16 lanes at a time: the
-/// entry index by the same `f32` operations, clamped as the scalar's
-/// saturating cast and `min` clamp it (NaN and negatives to entry 0, all
-/// beyond the table to its last), then each entry's two halves
-/// (`[ln(1 − τ), r]`, `[g, b]`) by 64-bit gathers, eight lanes each, and
-/// two-register permutes that part the pairs. Called only where the CPU
-/// has AVX-512F.
+/// loop of [`CompositeBand::blend`] reads them, eight lanes at a time
+/// without gathers: the entry index by the same `f32` operations, clamped
+/// as the scalar's saturating cast and `min` clamp it (NaN and negatives
+/// to entry 0, all beyond the table to its last), then each entry's 16
+/// bytes by one load,
+/// two entries to a register (lanes `i + k` and `i + k + 4`), and a 4×4
+/// transpose within each 128-bit half puts `ln(1 − τ)`, `r`, `g`, `b` of
+/// the eight samples in order. Lanes from `vals.len()` to the next
+/// multiple of eight are overwritten as scratch. Called only where the CPU
+/// has AVX2.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn lookup_avx512(
-    t: &TfTable,
-    vals: &[f32],
-    ln_tau: &mut [f32; CHUNK],
-    col: &mut [[f32; CHUNK]; 3],
-) {
+#[target_feature(enable = "avx2")]
+fn lookup_avx2(t: &TfTable, vals: &[f32], ln_tau: &mut [f32; CHUNK], col: &mut [[f32; CHUNK]; 3]) {
     use std::arch::x86_64::*;
     let n = vals.len().min(CHUNK);
+    let mut padded = [0f32; CHUNK];
+    padded[..n].copy_from_slice(&vals[..n]);
+    let mut idx = [0u32; CHUNK];
     let (lo, scale, half) = (
-        _mm512_set1_ps(t.lo),
-        _mm512_set1_ps(t.scale),
-        _mm512_set1_ps(0.5),
+        _mm256_set1_ps(t.lo),
+        _mm256_set1_ps(t.scale),
+        _mm256_set1_ps(0.5),
     );
-    let (zero, last) = (_mm512_setzero_ps(), _mm512_set1_ps((TF_TABLE - 1) as f32));
-    // Entry `e`'s halves are the `f64`s `2e` and `2e + 1`.
-    let halves = t.entries.as_ptr().cast::<f64>();
+    let (zero, last) = (_mm256_setzero_ps(), _mm256_set1_ps((TF_TABLE - 1) as f32));
     assert!(t.entries.len() == TF_TABLE);
-    // Lanes 0..16 of two registers of pairs: the first of each pair, and
-    // the second.
-    let firsts = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
-    let seconds = _mm512_add_epi32(firsts, _mm512_set1_epi32(1));
-    for i in (0..n).step_by(16) {
-        let m: __mmask16 = if n - i >= 16 { !0 } else { (1 << (n - i)) - 1 };
-        let (m_lo, m_hi) = (m as __mmask8, (m >> 8) as __mmask8);
-        // SAFETY: the mask covers lanes `i..n` only, within `vals` and the
-        // outputs (`n ≤ CHUNK`); the entry `e` is in `0..TF_TABLE` (clamped
-        // before the conversion), so the halves `2e`, `2e + 1` lie inside
-        // the table's `2·TF_TABLE` (asserted length); masked-off lanes
-        // load nothing.
+    let entries = t.entries.as_ptr().cast::<f32>();
+    let [rs, gs, bs] = col;
+    for i in (0..n).step_by(8) {
+        // SAFETY: `i + 8 ≤ CHUNK` (`i < n ≤ CHUNK`, both multiples of 8
+        // apart from `n`), so every load and store stays in the arrays;
+        // each index is clamped to `0..TF_TABLE` before the conversion, so
+        // each entry's 16 bytes lie in the table (asserted length).
         unsafe {
-            let s = _mm512_maskz_loadu_ps(m, vals.as_ptr().add(i));
-            let x = _mm512_add_ps(_mm512_mul_ps(_mm512_sub_ps(s, lo), scale), half);
+            let s = _mm256_loadu_ps(padded.as_ptr().add(i));
+            let x = _mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(s, lo), scale), half);
             // `max` yields its second operand for a NaN: entry 0.
-            let x = _mm512_min_ps(_mm512_max_ps(x, zero), last);
-            let e2 = _mm512_slli_epi32::<1>(_mm512_cvttps_epi32(x));
-            let one = _mm512_set1_epi32(1);
-            let gather = |idx: __m512i| {
-                let (lo8, hi8) = (
-                    _mm512_castsi512_si256(idx),
-                    _mm512_extracti64x4_epi64::<1>(idx),
-                );
-                let a = _mm512_mask_i32gather_pd::<8>(_mm512_setzero_pd(), m_lo, lo8, halves);
-                let b = _mm512_mask_i32gather_pd::<8>(_mm512_setzero_pd(), m_hi, hi8, halves);
-                let (a, b) = (_mm512_castpd_ps(a), _mm512_castpd_ps(b));
-                (
-                    _mm512_permutex2var_ps(a, firsts, b),
-                    _mm512_permutex2var_ps(a, seconds, b),
-                )
+            let x = _mm256_min_ps(_mm256_max_ps(x, zero), last);
+            _mm256_storeu_si256(idx.as_mut_ptr().add(i).cast(), _mm256_cvttps_epi32(x));
+            let entry = |k: usize| _mm_loadu_ps(entries.add(4 * idx[i + k] as usize));
+            let pair = |k: usize| _mm256_set_m128(entry(k + 4), entry(k));
+            let (a, b, c, d) = (pair(0), pair(1), pair(2), pair(3));
+            let (ab_lo, ab_hi) = (_mm256_unpacklo_ps(a, b), _mm256_unpackhi_ps(a, b));
+            let (cd_lo, cd_hi) = (_mm256_unpacklo_ps(c, d), _mm256_unpackhi_ps(c, d));
+            let part = |x: __m256, y: __m256, hi: bool| {
+                let (x, y) = (_mm256_castps_pd(x), _mm256_castps_pd(y));
+                _mm256_castpd_ps(if hi {
+                    _mm256_unpackhi_pd(x, y)
+                } else {
+                    _mm256_unpacklo_pd(x, y)
+                })
             };
-            let store = |out: &mut [f32; CHUNK], v: __m512| {
-                _mm512_mask_storeu_ps(out.as_mut_ptr().add(i), m, v)
-            };
-            let (ln, r) = gather(e2);
-            let (g, b) = gather(_mm512_add_epi32(e2, one));
-            store(ln_tau, ln);
-            let [rs, gs, bs] = col;
-            store(rs, r);
-            store(gs, g);
-            store(bs, b);
+            _mm256_storeu_ps(ln_tau.as_mut_ptr().add(i), part(ab_lo, cd_lo, false));
+            _mm256_storeu_ps(rs.as_mut_ptr().add(i), part(ab_lo, cd_lo, true));
+            _mm256_storeu_ps(gs.as_mut_ptr().add(i), part(ab_hi, cd_hi, false));
+            _mm256_storeu_ps(bs.as_mut_ptr().add(i), part(ab_hi, cd_hi, true));
         }
     }
 }
@@ -653,9 +640,8 @@ struct Tuning {
     skip: bool,
     #[cfg(target_arch = "x86_64")]
     avx2: bool,
-    /// The shear compiled for AVX-512 (with `avx2`), its perspective
-    /// resampling by permutes ([`lerp_gathered_avx512`]) and the transfer
-    /// table by gathers ([`lookup_avx512`]).
+    /// The shear compiled for AVX-512 (with `avx2`) and its perspective
+    /// resampling by permutes ([`lerp_gathered_avx512`]).
     #[cfg(target_arch = "x86_64")]
     avx512: bool,
 }
@@ -728,7 +714,11 @@ fn render_with(
         skip: tuning.skip,
         avx512,
     };
-    let (mut samples, mut image) = (0u64, Intermediate::new(&f, table.as_ref(), avx512));
+    #[cfg(target_arch = "x86_64")]
+    let avx2 = tuning.avx2;
+    #[cfg(not(target_arch = "x86_64"))]
+    let avx2 = false;
+    let (mut samples, mut image) = (0u64, Intermediate::new(&f, table.as_ref(), avx2));
     match &mut image {
         Intermediate::Mip(m) => {
             samples += m
@@ -770,7 +760,7 @@ enum Intermediate<'a> {
 }
 
 impl<'a> Intermediate<'a> {
-    fn new(f: &Factor, table: Option<&'a TfTable>, avx512: bool) -> Self {
+    fn new(f: &Factor, table: Option<&'a TfTable>, avx2: bool) -> Self {
         let bands = f.h.div_ceil(BAND);
         let len = |band: usize| f.w * BAND.min(f.h - band * BAND);
         match table {
@@ -793,7 +783,7 @@ impl<'a> Intermediate<'a> {
                         seen: vec![false; len(band)],
                         done: vec![false; len(band) / f.w * f.w.div_ceil(CHUNK)],
                         table,
-                        avx512,
+                        avx2,
                     })
                     .collect(),
             ),
@@ -1751,14 +1741,14 @@ mod tests {
         assert!(opaque > 500, "{opaque} opaque entries");
     }
 
-    /// The gathered table look-up reads the entries the scalar one reads,
+    /// The table look-up in AVX2 registers reads the entries the scalar one reads,
     /// for every length up to a chunk and samples of every kind: inside
     /// the table, on its ends, beyond them, ±∞, NaN, ±0, subnormal.
     #[cfg(target_arch = "x86_64")]
     #[test]
-    fn gathered_lookup_is_the_scalar() {
-        if !std::arch::is_x86_feature_detected!("avx512f") {
-            eprintln!("no AVX-512F here: the gathered look-up is not run");
+    fn vector_lookup_is_the_scalar() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("no AVX2 here: the vector look-up is not run");
             return;
         }
         let mut rng = StdRng::seed_from_u64(37);
@@ -1796,9 +1786,10 @@ mod tests {
                 [want.0[k], want.1[0][k], want.1[1][k], want.1[2][k]] = t.entries[e];
             }
             let mut got = ([0f32; CHUNK], [[0f32; CHUNK]; 3]);
-            // SAFETY: AVX-512F is detected above.
-            unsafe { lookup_avx512(&t, &vals, &mut got.0, &mut got.1) };
-            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            // SAFETY: AVX2 is detected above.
+            unsafe { lookup_avx2(&t, &vals, &mut got.0, &mut got.1) };
+            // Lanes past `n` are scratch (the blend reads `..n`).
+            let bits = |v: &[f32]| v[..n].iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&got.0), bits(&want.0), "{vals:?}");
             for c in 0..3 {
                 assert_eq!(bits(&got.1[c]), bits(&want.1[c]), "{vals:?}");
