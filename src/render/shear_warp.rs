@@ -519,12 +519,11 @@ impl CompositeBand<'_> {
 /// without gathers: the entry index by the same `f32` operations, clamped
 /// as the scalar's saturating cast and `min` clamp it (NaN and negatives
 /// to entry 0, all beyond the table to its last), then each entry's 16
-/// bytes by one load,
-/// two entries to a register (lanes `i + k` and `i + k + 4`), and a 4×4
-/// transpose within each 128-bit half puts `ln(1 − τ)`, `r`, `g`, `b` of
-/// the eight samples in order. Lanes from `vals.len()` to the next
-/// multiple of eight are overwritten as scratch. Called only where the CPU
-/// has AVX2.
+/// bytes by one load, two entries to a register (lanes `i + k` and
+/// `i + k + 4`), and a 4×4 transpose within each 128-bit half puts
+/// `ln(1 − τ)`, `r`, `g`, `b` of the eight samples in order. Lanes from
+/// `vals.len()` to the next multiple of eight are overwritten as scratch.
+/// Called only where the CPU has AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn lookup_avx2(t: &TfTable, vals: &[f32], ln_tau: &mut [f32; CHUNK], col: &mut [[f32; CHUNK]; 3]) {
@@ -543,8 +542,8 @@ fn lookup_avx2(t: &TfTable, vals: &[f32], ln_tau: &mut [f32; CHUNK], col: &mut [
     let entries = t.entries.as_ptr().cast::<f32>();
     let [rs, gs, bs] = col;
     for i in (0..n).step_by(8) {
-        // SAFETY: `i + 8 ≤ CHUNK` (`i < n ≤ CHUNK`, both multiples of 8
-        // apart from `n`), so every load and store stays in the arrays;
+        // SAFETY: `i` is a multiple of 8 below `n ≤ CHUNK = 32`, so
+        // `i + 8 ≤ CHUNK` and every load and store stays in the arrays;
         // each index is clamped to `0..TF_TABLE` before the conversion, so
         // each entry's 16 bytes lie in the table (asserted length).
         unsafe {
