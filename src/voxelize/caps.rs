@@ -9,11 +9,9 @@
 //!
 //! [`boundary_caps`] returns a chain `S'` with `∂S' = ∂S`: the boundary is
 //! split into short directed cycles ([`boundary_cycles`]; a boundary is
-//! always a union of cycles), and each cycle is closed by the fan of
-//! triangles `(P, a, b)` over its edges `a→b` from one apex `P` (its vertex
-//! centroid; a 3-cycle by its own triangle): along a cycle the spokes `P→a`
-//! cancel. A cycle longer than `FAN_MAX` (16) is first halved by its shortest
-//! halving chord, recursively (`close_cycle`). Short cycles keep the caps on
+//! always a union of cycles), and each cycle is triangulated on its own
+//! (`close_cycle`: a 3-cycle is its own triangle, a longer one is halved by
+//! its shortest halving chord, recursively). Short cycles keep the caps on
 //! the holes they close. Then `S − S'`
 //! is closed, so
 //!
@@ -304,8 +302,8 @@ pub fn boundary_components<K: Copy + Ord + Hash>(edges: &[(K, K)]) -> Vec<Vec<(K
 /// [module docs](self)), kept local: the boundary (a balanced directed
 /// multigraph, in-degree = out-degree at every vertex) is split into short
 /// directed cycles ([`boundary_cycles`]), and each cycle is closed on its
-/// own: a 3-cycle by its own triangle, a longer one by the fan from its
-/// rounded vertex centroid. Oriented like `S` (so `S − S'`, the mesh plus the
+/// own: a 3-cycle by its own triangle, a longer one by `n − 2` triangles
+/// between its vertices (halved by short chords). Oriented like `S` (so `S − S'`, the mesh plus the
 /// reversed caps, is closed). One fan per boundary *component* would be valid
 /// too, but where holes are everywhere (a scan, triangles deleted at random)
 /// the holes touch at vertices, one component spans the whole mesh, and its
@@ -322,8 +320,8 @@ pub fn boundary_components<K: Copy + Ord + Hash>(edges: &[(K, K)]) -> Vec<Vec<(K
 /// // A unit square (two triangles, 1/256 fixed point) has one boundary loop:
 /// let (o, x, y, xy) = ([0, 0, 0], [256, 0, 0], [0, 256, 0], [256, 256, 0]);
 /// let caps = boundary_caps(&[[o, x, xy], [o, xy, y]], &[]);
-/// assert_eq!(caps.len(), 4); // a fan over its 4 rim edges from the centre
-/// assert!(caps.iter().all(|t| t[0] == [128, 128, 0]));
+/// assert_eq!(caps.len(), 2); // the square again, cut by a diagonal
+/// assert!(caps.iter().all(|t| t.contains(&o) || t.contains(&x)));
 /// ```
 pub fn boundary_caps(
     triangles: &[SurfaceTriangle],
@@ -413,57 +411,37 @@ impl Boundary {
     }
 }
 
-/// Cycles longer than this are halved before they are fanned.
-const FAN_MAX: usize = 16;
-
 /// Caps closing one directed cycle (`v0 → v1 → … → v0`, no vertex
-/// repeated), zero-area triangles dropped, appended to `caps`. A 3-cycle
-/// is its own triangle; a cycle of up to [`FAN_MAX`] vertices is fanned
-/// from its vertex centroid, triangles `(P, a, b)` over its edges `a → b`
-/// (the spokes `P → a` cancel along the cycle). A longer one is first cut
-/// by the shortest chord `v_i – v_{i+⌊n/2⌋}` into two cycles that use it in
-/// opposite directions, recursively: a fan's triangles all meet at the apex and
-/// each is as long as the hole is wide, so every brick near a wide hole's
-/// cap would be near all of them, where halving leaves few large triangles
-/// and many small ones.
+/// repeated), zero-area triangles dropped, appended to `caps`: `n − 2`
+/// triangles for `n` vertices, the fewest a triangulation of the cycle can
+/// have. A 3-cycle is its own triangle; a longer one is cut by the shortest
+/// of its halving chords `v_i – v_{i+⌊n/2⌋}` into two cycles that use it in
+/// opposite directions, recursively. Halving keeps the caps small where
+/// they can be (a fan from one apex puts every cap at the apex, each as
+/// long as the hole is wide), and a random hole of `k` missing triangles
+/// gets `k` caps back, not the `k + 2` of a fan from its centroid.
 fn close_cycle(cycle: &[[i64; 3]], caps: &mut Vec<SurfaceTriangle>) {
-    let mut push = |t: SurfaceTriangle| {
+    let n = cycle.len();
+    if n < 3 {
+        return;
+    }
+    if let [a, b, c] = cycle[..] {
+        let t = [a, b, c];
         if !zero_area(&t) {
             caps.push(t);
         }
+        return;
+    }
+    // The shortest of the chords that halve the cycle.
+    let mid = n / 2;
+    let i = (0..n)
+        .min_by_key(|&i| (distance2(cycle[i], cycle[(i + mid) % n]), i))
+        .unwrap_or(0);
+    let arc = |from: usize, len: usize| -> Vec<[i64; 3]> {
+        (0..=len).map(|k| cycle[(from + k) % n]).collect()
     };
-    let n = cycle.len();
-    if let [a, b, c] = cycle[..] {
-        push([a, b, c]);
-        return;
-    }
-    if n > FAN_MAX {
-        // The shortest of the chords that halve the cycle.
-        let mid = n / 2;
-        let i = (0..n - mid)
-            .min_by_key(|&i| (distance2(cycle[i], cycle[i + mid]), i))
-            .unwrap_or(0);
-        close_cycle(&cycle[i..=i + mid], caps);
-        let rest: Vec<[i64; 3]> = cycle[i + mid..]
-            .iter()
-            .chain(&cycle[..=i])
-            .copied()
-            .collect();
-        close_cycle(&rest, caps);
-        return;
-    }
-    let mut sum = [0i128; 3];
-    for a in cycle {
-        for ax in 0..3 {
-            sum[ax] += a[ax] as i128;
-        }
-    }
-    let m = n as i128;
-    // Round half away from zero: any apex gives valid caps.
-    let apex = sum.map(|s| ((2 * s + s.signum() * m) / (2 * m)) as i64);
-    for (i, &a) in cycle.iter().enumerate() {
-        push([apex, a, cycle[(i + 1) % n]]);
-    }
+    close_cycle(&arc(i, mid), caps);
+    close_cycle(&arc(i + mid, n - mid), caps);
 }
 
 /// Splits a directed boundary (sorted edges with multiplicity, as
@@ -841,11 +819,12 @@ mod tests {
         );
     }
 
-    /// A long hole's caps close it (their boundary is the cycle) without a
-    /// fan's apex: few caps meet at any vertex, so a brick near the cap is
-    /// near few of them (a fan puts all `n` at its apex).
+    /// A hole's caps close it (their boundary is the cycle) with the
+    /// fewest triangles (`n − 2`) and without a fan's apex: few caps meet
+    /// at any vertex, so a brick near the cap is near few of them (a fan
+    /// puts all `n` at its apex).
     #[test]
-    fn long_cycles_are_halved_not_fanned() {
+    fn cycles_are_halved_not_fanned() {
         for n in [3usize, 4, 9, 16, 17, 31, 64, 400] {
             let cycle: Vec<[i64; 3]> = (0..n)
                 .map(|i| {
@@ -865,9 +844,10 @@ mod tests {
                     *degree.entry(*p).or_insert(0) += 1;
                 }
             }
+            assert_eq!(caps.len(), n - 2, "n = {n}");
             let most = degree.values().copied().max().unwrap_or(0);
             assert!(
-                most <= FAN_MAX + 2 * n.ilog2() as usize,
+                most <= 2 + 2 * n.ilog2() as usize,
                 "n = {n}: {most} caps at one vertex"
             );
         }
