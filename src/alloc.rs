@@ -101,7 +101,7 @@ unsafe impl GlobalAlloc for HugePageAlloc {
         }
         if is_huge(layout) && is_huge(new_layout) {
             // SAFETY: `ptr` is a live mapping of `layout.size()` bytes.
-            if let Some(p) = unsafe { huge::resize_in_place(ptr, layout.size(), new_size) } {
+            if let Some(p) = unsafe { huge::resize(ptr, layout.size(), new_size) } {
                 return p;
             }
         }
@@ -174,7 +174,12 @@ mod huge {
     /// [`HUGE_PAGE`]; with `hint`, marked for transparent huge pages. Null
     /// when the system refuses.
     pub(super) fn map(size: usize, hint: bool) -> *mut u8 {
-        let len = mapped_len(size);
+        fresh(mapped_len(size), hint)
+    }
+
+    /// A new mapping of `len` bytes (a multiple of [`HUGE_PAGE`]), aligned
+    /// to [`HUGE_PAGE`]; with `hint`, marked for transparent huge pages.
+    fn fresh(len: usize, hint: bool) -> *mut u8 {
         // Over-allocate by one huge page and trim both ends to align.
         let Some(span) = len.checked_add(HUGE_PAGE) else {
             return std::ptr::null_mut();
@@ -220,22 +225,66 @@ mod huge {
     /// Frees a block of `size` bytes made by [`map`].
     ///
     /// # Safety
-    /// `p` must come from [`map`] (or [`resize_in_place`]) with this `size`.
+    /// `p` must come from [`map`] (or [`resize`]) with this `size`.
     pub(super) unsafe fn unmap(p: *mut u8, size: usize) {
         // SAFETY: by the contract, `p..p + mapped_len(size)` is our mapping.
         unsafe { libc::munmap(p.cast(), mapped_len(size)) };
     }
 
-    /// The block unchanged if its mapping already covers `new_size`.
+    /// The block resized to `new_size` without copying: shrunk or grown
+    /// where it is when it can be, else its pages moved by `mremap` to a
+    /// fresh aligned mapping; `None` when the system refuses (the block is
+    /// then unchanged).
     ///
     /// # Safety
-    /// `p` must come from [`map`] with `size`.
-    pub(super) unsafe fn resize_in_place(
+    /// `p` must come from [`map`] (or `resize`) with `size`.
+    pub(super) unsafe fn resize(
         p: *mut u8,
         size: usize,
         new_size: usize,
     ) -> Option<*mut u8> {
-        (mapped_len(new_size) == mapped_len(size)).then_some(p)
+        let (len, new_len) = (mapped_len(size), mapped_len(new_size));
+        if new_len <= len {
+            if new_len < len {
+                // SAFETY: the tail is the end of our mapping, past the
+                // `new_len` bytes kept.
+                unsafe { libc::munmap(p.add(new_len).cast(), len - new_len) };
+            }
+            return Some(p);
+        }
+        // Grow in place where the address space after the block is free.
+        // SAFETY: `p..p + len` is our mapping; without MREMAP_MAYMOVE it
+        // stays where it is or the call fails.
+        let q = unsafe { libc::mremap(p.cast(), len, new_len, 0) };
+        if q != libc::MAP_FAILED {
+            // SAFETY: advises only the mapping just grown.
+            unsafe { libc::madvise(p.cast(), new_len, libc::MADV_HUGEPAGE) };
+            return Some(p);
+        }
+        // Else move the pages (no copy, no new faults for them) to the
+        // start of a fresh aligned mapping of the new size.
+        let dest = fresh(new_len, true);
+        if dest.is_null() {
+            return None;
+        }
+        // SAFETY: `p..p + len` is our mapping and `dest..dest + new_len`
+        // the one just made; MREMAP_FIXED replaces `dest..dest + len` with
+        // `p`'s pages and unmaps `p`.
+        let q = unsafe {
+            libc::mremap(
+                p.cast(),
+                len,
+                len,
+                libc::MREMAP_MAYMOVE | libc::MREMAP_FIXED,
+                dest.cast::<libc::c_void>(),
+            )
+        };
+        if q == libc::MAP_FAILED {
+            // SAFETY: `dest` is the fresh mapping of `new_len` bytes.
+            unsafe { libc::munmap(dest.cast(), new_len) };
+            return None;
+        }
+        Some(dest)
     }
 }
 
@@ -248,7 +297,7 @@ mod huge {
     pub(super) unsafe fn unmap(_: *mut u8, _: usize) {
         unreachable!("huge blocks are Linux-only")
     }
-    pub(super) unsafe fn resize_in_place(_: *mut u8, _: usize, _: usize) -> Option<*mut u8> {
+    pub(super) unsafe fn resize(_: *mut u8, _: usize, _: usize) -> Option<*mut u8> {
         unreachable!("huge blocks are Linux-only")
     }
 }
@@ -277,12 +326,15 @@ mod tests {
     #[test]
     fn blocks_on_both_sides_of_the_threshold_keep_their_bytes_through_resizes() {
         let a = HugePageAlloc;
-        // Small → huge → larger huge (same mapping) → much larger → small.
+        // Small → huge → larger huge (same mapping) → much larger → shrunk
+        // in place → grown again (moved or in place) → small.
         let sizes = [
             1000,
             HUGE_THRESHOLD + 8,
             HUGE_THRESHOLD + 4096,
             3 * HUGE_PAGE + 5,
+            HUGE_PAGE + 17,
+            9 * HUGE_PAGE,
             HUGE_THRESHOLD - 1,
             64,
         ];
