@@ -238,11 +238,7 @@ mod huge {
     ///
     /// # Safety
     /// `p` must come from [`map`] (or `resize`) with `size`.
-    pub(super) unsafe fn resize(
-        p: *mut u8,
-        size: usize,
-        new_size: usize,
-    ) -> Option<*mut u8> {
+    pub(super) unsafe fn resize(p: *mut u8, size: usize, new_size: usize) -> Option<*mut u8> {
         let (len, new_len) = (mapped_len(size), mapped_len(new_size));
         if new_len <= len {
             if new_len < len {
