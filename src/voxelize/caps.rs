@@ -303,13 +303,13 @@ pub fn boundary_components<K: Copy + Ord + Hash>(edges: &[(K, K)]) -> Vec<Vec<(K
 /// multigraph, in-degree = out-degree at every vertex) is split into short
 /// directed cycles ([`boundary_cycles`]), and each cycle is closed on its
 /// own: a 3-cycle by its own triangle, a longer one by `n − 2` triangles
-/// between its vertices (halved by short chords). Oriented like `S` (so `S − S'`, the mesh plus the
-/// reversed caps, is closed). One fan per boundary *component* would be valid
-/// too, but where holes are everywhere (a scan, triangles deleted at random)
-/// the holes touch at vertices, one component spans the whole mesh, and its
-/// fan from a far centroid cuts through the whole volume: then the caps'
-/// winding number jumps in every brick and every brick must be decided voxel
-/// by voxel. Local caps lie on the holes they close, so `w_{S'}` is smooth
+/// between its vertices (halved by short chords). Oriented like `S` (so
+/// `S − S'`, the mesh plus the reversed caps, is closed). One fan per
+/// boundary *component* would be valid too, but where holes are everywhere
+/// (a scan, triangles deleted at random) the holes touch at vertices, one
+/// component spans the whole mesh, and its fan from a far centroid cuts
+/// through the whole volume: then the caps' winding number jumps in every
+/// brick and every brick must be decided voxel by voxel. Local caps lie on the holes they close, so `w_{S'}` is smooth
 /// away from the surface. `degenerate` triangles (zero area) take part in the
 /// boundary: they still pair their neighbours' edges. Caps of zero area are
 /// dropped (they add nothing to a winding number or a crossing count).
