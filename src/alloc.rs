@@ -15,7 +15,9 @@
 //! that hint; everything else goes to the system allocator. Zeroed requests
 //! stay on lazily mapped 4 KiB pages, so a large zeroed buffer that is only
 //! touched sparsely (a dense bit grid) does not become resident in 2 MiB
-//! steps.
+//! steps. Such a mapping is resized without copying: shrunk or grown where
+//! it lies when it can be, else its pages are moved by `mremap` (a vector
+//! grown by `push` is neither copied nor touched twice).
 //!
 //! The `voxkit` binary installs it; a library user opts in with
 //!
