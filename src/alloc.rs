@@ -390,6 +390,46 @@ mod tests {
         }
     }
 
+    /// A huge block that cannot grow where it lies (the page after its
+    /// mapping is taken) has its pages moved by `mremap`: its bytes kept,
+    /// its new address huge-page aligned, the old range no longer ours.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_blocked_huge_block_grows_by_moving_its_pages() {
+        let a = HugePageAlloc;
+        let layout = Layout::from_size_align(2 * HUGE_PAGE, 64).unwrap();
+        // SAFETY: non-zero size, valid alignment.
+        let p = unsafe { a.alloc(layout) };
+        assert!(!p.is_null());
+        fill(p, layout.size(), 5);
+        // Take the page right after the block's mapping, so it cannot grow in place.
+        // SAFETY: MAP_FIXED_NOREPLACE maps only where nothing is mapped.
+        let guard = unsafe {
+            libc::mmap(
+                p.add(2 * HUGE_PAGE).cast(),
+                4096,
+                libc::PROT_READ | libc::PROT_WRITE,
+                libc::MAP_PRIVATE | libc::MAP_ANONYMOUS | libc::MAP_FIXED_NOREPLACE,
+                -1,
+                0,
+            )
+        };
+        assert_eq!(guard.cast::<u8>(), unsafe { p.add(2 * HUGE_PAGE) });
+        let new_size = 5 * HUGE_PAGE + 3;
+        // SAFETY: `p` comes from `map` (through `alloc`) with this size.
+        let q = unsafe { huge::resize(p, layout.size(), new_size) }
+            .expect("mremap moves the pages rather than failing");
+        assert_ne!(q, p, "the block could not have grown in place");
+        assert_eq!(q as usize % HUGE_PAGE, 0);
+        assert!(holds(q, layout.size(), 5));
+        fill(q, new_size, 6);
+        // SAFETY: `q` is live with the new layout; `guard` is the page mapped above.
+        unsafe {
+            a.dealloc(q, Layout::from_size_align(new_size, 64).unwrap());
+            libc::munmap(guard, 4096);
+        }
+    }
+
     #[test]
     fn growth_by_doubling_through_the_threshold_keeps_every_element() {
         // What a growing `Vec<u64>` asks of it, by hand.

@@ -309,8 +309,8 @@ pub fn boundary_components<K: Copy + Ord + Hash>(edges: &[(K, K)]) -> Vec<Vec<(K
 /// (a scan, triangles deleted at random) the holes touch at vertices, one
 /// component spans the whole mesh, and its fan from a far centroid cuts
 /// through the whole volume: then the caps' winding number jumps in every
-/// brick and every brick must be decided voxel by voxel. Local caps lie on the holes they close, so `w_{S'}` is smooth
-/// away from the surface. `degenerate` triangles (zero area) take part in the
+/// brick and every brick must be decided voxel by voxel. Local caps lie on
+/// the holes they close, so `w_{S'}` is smooth away from the surface. `degenerate` triangles (zero area) take part in the
 /// boundary: they still pair their neighbours' edges. Caps of zero area are
 /// dropped (they add nothing to a winding number or a crossing count).
 /// Empty for a closed, consistently oriented mesh.
