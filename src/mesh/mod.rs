@@ -196,20 +196,28 @@ impl Mesh {
     /// Axis-aligned bounds `(min, max)` of the vertices that triangles and
     /// polylines use (unused vertices do not count).
     pub fn bounds(&self) -> (DVec3, DVec3) {
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        let mut add = |i: u32| {
+        use rayon::prelude::*;
+        // In parallel: on a million triangles the serial scan, a gather by
+        // index, was a third of quantizing. Minima and maxima do not depend
+        // on the order.
+        let empty = || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        let join = |a: (DVec3, DVec3), b: (DVec3, DVec3)| (a.0.min(b.0), a.1.max(b.1));
+        let add = |(lo, hi): (DVec3, DVec3), i: u32| {
             let p = self.positions[i as usize];
-            lo = lo.min(p);
-            hi = hi.max(p);
+            (lo.min(p), hi.max(p))
         };
-        for t in &self.triangles {
-            t.iter().for_each(|&i| add(i));
-        }
-        for l in &self.polylines {
-            l.iter().for_each(|&i| add(i));
-        }
-        (lo, hi)
+        let triangles = self
+            .triangles
+            .par_iter()
+            .with_min_len(4096)
+            .fold(empty, |b, t| t.iter().fold(b, |b, &i| add(b, i)))
+            .reduce(empty, join);
+        let lines = self
+            .polylines
+            .iter()
+            .flatten()
+            .fold(empty(), |b, &i| add(b, i));
+        join(triangles, lines)
     }
 
     /// The three corners of triangle `t`.
