@@ -425,6 +425,27 @@ impl VolumeBricks {
     /// Index steps of a move along x, y, z that stays inside one brick.
     pub(crate) const STRIDES: [isize; 3] = [1, 8, 64];
 
+    /// Asks the CPU to fetch brick `bi`'s samples into its caches: a ray
+    /// entering a brick reads a few of its cache lines one after another,
+    /// and the rays of the neighbouring pixels most of the others, so the
+    /// whole brick's lines are requested at once. A hint: nothing is read.
+    #[inline(always)]
+    pub(crate) fn prefetch(&self, bi: usize) {
+        #[cfg(target_arch = "x86_64")]
+        with_store!(&self.store, v => {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            let start = v.as_ptr().wrapping_add(bi << 9).cast::<i8>();
+            let bytes = std::mem::size_of_val(&v[..BRICK_LEN.min(v.len())]);
+            for off in (0..bytes).step_by(64) {
+                // SAFETY: SSE is part of the x86-64 baseline, and a
+                // prefetch never faults (any address is allowed).
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(start.wrapping_add(off)) };
+            }
+        });
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = bi;
+    }
+
     /// The sample at storage index `i`.
     #[inline(always)]
     pub(crate) fn value_at(&self, i: usize) -> f32 {

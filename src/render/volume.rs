@@ -823,6 +823,11 @@ fn lt_min(a: f64, b: f64) -> f64 {
 trait Accum {
     /// Whether `visit` needs the stretch length.
     const LEN: bool;
+    /// Whether a ray usually reads on through a brick it enters (MIP,
+    /// compositing), so the brick's cache lines are worth asking for at
+    /// once (`VolumeBricks::prefetch`); an
+    /// iso ray stops at its first crossing.
+    const READS_ON: bool = true;
     /// Takes a visited voxel's sample and stretch length (world units);
     /// `true` ends the ray.
     fn visit(&mut self, v: IVec3, s: f32, len: f64) -> bool;
@@ -886,6 +891,7 @@ struct Iso {
 }
 
 impl Accum for Iso {
+    const READS_ON: bool = false;
     const LEN: bool = false;
     #[inline(always)]
     fn visit(&mut self, v: IVec3, s: f32, _len: f64) -> bool {
@@ -1223,6 +1229,17 @@ impl<A: Accum, const TRI: bool> Visitor for VolumeVisit<'_, '_, A, TRI> {
         }
         let k = if in26 { class.flag } else { class.skip };
         skip_box(self.ctx, self.acc, b, bi, k, !in26)
+    }
+
+    /// Every brick not jumped is read; where rays read on through it,
+    /// its cache lines are asked for at once: a MIP frame ~7% faster
+    /// (docs/performance-notes.md), an iso frame slower.
+    #[inline(always)]
+    fn reads(&self, (bi, _): Self::Brick) -> bool {
+        if A::READS_ON {
+            self.ctx.scene.bricks.prefetch(bi);
+        }
+        true
     }
 
     #[inline(always)]
