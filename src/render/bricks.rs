@@ -435,6 +435,8 @@ impl VolumeBricks {
         with_store!(&self.store, v => {
             use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
             let start = v.as_ptr().wrapping_add(bi << 9).cast::<i8>();
+            // One brick's bytes in the store's sample type (none for a
+            // store without samples).
             let bytes = std::mem::size_of_val(&v[..BRICK_LEN.min(v.len())]);
             for off in (0..bytes).step_by(64) {
                 // SAFETY: SSE is part of the x86-64 baseline, and a

@@ -825,8 +825,8 @@ trait Accum {
     const LEN: bool;
     /// Whether a ray usually reads on through a brick it enters (MIP,
     /// compositing), so the brick's cache lines are worth asking for at
-    /// once (`VolumeBricks::prefetch`); an
-    /// iso ray stops at its first crossing.
+    /// once (`VolumeBricks::prefetch`); an iso ray stops at its first
+    /// crossing.
     const READS_ON: bool = true;
     /// Takes a visited voxel's sample and stretch length (world units);
     /// `true` ends the ray.
