@@ -432,8 +432,20 @@ impl VolumeBricks {
     #[inline(always)]
     pub(crate) fn prefetch(&self, bi: usize) {
         #[cfg(target_arch = "x86_64")]
+        self.prefetch_to::<{ std::arch::x86_64::_MM_HINT_T0 }>(bi);
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = bi;
+    }
+
+    /// [`VolumeBricks::prefetch`] into the cache level `HINT` names
+    /// (`_MM_HINT_T0` for every level, `_MM_HINT_T1` from the second on):
+    /// shear-warp fetches the next layer's bricks into the second level
+    /// while it works on the current one, which the first holds.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn prefetch_to<const HINT: i32>(&self, bi: usize) {
         with_store!(&self.store, v => {
-            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            use std::arch::x86_64::_mm_prefetch;
             let start = v.as_ptr().wrapping_add(bi << 9).cast::<i8>();
             // One brick's bytes in the store's sample type (none for a
             // store without samples).
@@ -441,11 +453,9 @@ impl VolumeBricks {
             for off in (0..bytes).step_by(64) {
                 // SAFETY: SSE is part of the x86-64 baseline, and a
                 // prefetch never faults (any address is allowed).
-                unsafe { _mm_prefetch::<_MM_HINT_T0>(start.wrapping_add(off)) };
+                unsafe { _mm_prefetch::<HINT>(start.wrapping_add(off)) };
             }
         });
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = bi;
     }
 
     /// The sample at storage index `i`.
