@@ -57,7 +57,7 @@ use std::time::Instant;
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 
-use super::bricks::{BRICK, BrickRange};
+use super::bricks::BRICK;
 use super::opacity::{corrected_opacity_from_log, ln_one_minus};
 use super::volume::{EARLY_TERMINATION, grey, sample_color};
 use super::{
@@ -928,12 +928,12 @@ fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
         }
     ];
     let mut floor = vec![0f32; if skip { f.w } else { 0 }];
-    // Compositing: the next layer (its extent, found ahead) and its bricks
-    // the table does not make transparent, fetched into the second-level
-    // cache a share per slice row while this layer blends, so the next
-    // fill reads from cache rather than memory. A hint: no value depends
-    // on it.
+    // The next layer (its extent, found ahead) and its live bricks,
+    // fetched into the second-level cache a share per slice row
+    // while this layer blends, so the next fill reads from cache rather
+    // than memory. A hint: no value depends on it.
     let mut next: Option<Layer> = None;
+    let mut live_next = live.clone();
     let (mut ahead, mut ahead_at, mut ahead_per_row) = (Vec::new(), 0, 0);
     let mut samples = 0;
     for q in 0..f.n {
@@ -950,20 +950,7 @@ fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
                 _ => Layer::of(f, j0, rows, k),
             };
             if skip {
-                if let Some(t) = table {
-                    // Compositing: a brick whose samples the table makes
-                    // transparent adds exactly nothing (`α = 0`).
-                    live_bricks(scene, f, columns, &extent, &mut live, |lo, hi, _| {
-                        !t.clear(lo, hi)
-                    });
-                } else if acc.floor(extent.rows, &mut floor) {
-                    // MIP: live unless the bound is at most the floor (a
-                    // NaN bound, from infinite samples, keeps the brick).
-                    live_bricks(scene, f, columns, &extent, &mut live, |_, hi, cols| {
-                        let low = floor[cols].iter().fold(f32::INFINITY, |m, &x| m.min(x));
-                        !matches!(hi.partial_cmp(&low), Some(Ordering::Less | Ordering::Equal))
-                    });
-                }
+                mark_live(job, acc, &extent, &mut live, &mut floor);
             }
             brick_rows.fill(None);
             runs.clear();
@@ -979,22 +966,27 @@ fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
                 t += 1;
             }
             slab.fill(scene, f, &extent, &runs, slab_cap);
-            if let Some(t) = table {
-                let k_next = if f.step > 0 {
-                    (k | 7) + 1
-                } else {
-                    (k & !7) - 1
-                };
-                ahead.clear();
-                ahead_at = 0;
-                if (0..f.dims[f.c]).contains(&k_next) {
-                    let l = Layer::of(f, j0, rows, k_next);
-                    bricks_ahead(scene, f, &l, |r| !t.clear(r.min[1], r.max[1]), &mut ahead);
-                    next = Some(l);
+            let k_next = if f.step > 0 {
+                (k | 7) + 1
+            } else {
+                (k & !7) - 1
+            };
+            ahead.clear();
+            ahead_at = 0;
+            // Compositing only: the MIP's light blend leaves too little
+            // time to hide the fetch behind (tried: no gain).
+            if table.is_some() && (0..f.dims[f.c]).contains(&k_next) {
+                let l = Layer::of(f, j0, rows, k_next);
+                live_next.fill(true);
+                if skip {
+                    // (`floor` is scratch here.)
+                    mark_live(job, acc, &l, &mut live_next, &mut floor);
                 }
-                let row_visits = (extent.k_hi - extent.k_lo + 1) as usize * rows;
-                ahead_per_row = ahead.len().div_ceil(row_visits);
+                bricks_ahead(scene, f, &l, &live_next, &mut ahead);
+                next = Some(l);
             }
+            let row_visits = (extent.k_hi - extent.k_lo + 1) as usize * rows;
+            ahead_per_row = ahead.len().div_ceil(row_visits);
         }
         spans.clear();
         spans.extend(
@@ -1122,30 +1114,50 @@ fn live_bricks(
     }
 }
 
-/// Appends to `out` the storage indices of `layer`'s bricks (all along
-/// `a`, over its rows' bricks along `b`) whose value range `wanted` keeps.
+/// Marks `layer`'s live bricks along `a` in `live` (and leaves it alone
+/// for an accumulator every sample may change), with `floor` as scratch.
+fn mark_live<A: Accumulate>(
+    job: &Shear,
+    acc: &A,
+    layer: &Layer,
+    live: &mut [bool],
+    floor: &mut [f32],
+) {
+    let (scene, f, columns) = (job.scene, job.f, job.columns);
+    if let Some(t) = job.table {
+        // Compositing: a brick whose samples the table makes transparent
+        // adds exactly nothing (`α = 0`).
+        live_bricks(scene, f, columns, layer, live, |lo, hi, _| !t.clear(lo, hi));
+    } else if acc.floor(layer.rows, floor) {
+        // MIP: live unless the bound is at most the floor (a NaN bound,
+        // from infinite samples, keeps the brick).
+        live_bricks(scene, f, columns, layer, live, |_, hi, cols| {
+            let low = floor[cols].iter().fold(f32::INFINITY, |m, &x| m.min(x));
+            !matches!(hi.partial_cmp(&low), Some(Ordering::Less | Ordering::Equal))
+        });
+    }
+}
+
+/// Appends to `out` the storage indices of `layer`'s bricks along `a`
+/// marked in `live`, over its rows' bricks along `b`.
 fn bricks_ahead(
     scene: &VolumeScene,
     f: &Factor,
     layer: &Layer,
-    wanted: impl Fn(&BrickRange) -> bool,
+    live: &[bool],
     out: &mut Vec<usize>,
 ) {
     if layer.b_lo > layer.b_hi {
         return;
     }
     let bricks = scene.bricks();
-    let ranges = bricks.ranges();
     let mut at = IVec3::ZERO;
     at[f.c] = layer.k_lo >> 3;
     for tb in layer.b_lo >> 3..=layer.b_hi >> 3 {
         at[f.b] = tb;
-        for ta in 0..bricks.brick_dims()[f.a] {
-            at[f.a] = ta;
-            let bi = bricks.brick_index(at);
-            if wanted(&ranges[bi]) {
-                out.push(bi);
-            }
+        for (ta, _) in live.iter().enumerate().filter(|(_, l)| **l) {
+            at[f.a] = ta as i32;
+            out.push(bricks.brick_index(at));
         }
     }
 }
