@@ -26,9 +26,11 @@
 use std::io::Write;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::voxels::check_sparse_budget;
 use crate::error::{Result, VoxkitError};
+use crate::grid::brick::BrickMask;
 use crate::grid::{BrickGrid, GridFrame, MemoryLimit, Voxel};
 
 /// Writes `grid` (voxels inside `frame.dims`, checked by the caller) as binvox.
@@ -49,12 +51,12 @@ pub fn write(
         d as f64 * frame.voxel_size
     )?;
     // The writer's own memory: the brick order (4 bytes per stored mask)
-    // and one brick layer (up to (d/8)² bricks of 24 bytes), never a
-    // mask per tile.
+    // and a brick layer per thread (up to (d/8)² bricks of 24 bytes),
+    // never a mask per tile.
     let layer = (d as u128).div_ceil(8).pow(2);
     limit.check(
         "binvox writer bricks",
-        4 * grid.mask_count() as u128 + 24 * layer,
+        4 * grid.mask_count() as u128 + 24 * layer * layer_batch() as u128,
         1,
     )?;
     write_runs(w, grid, d as u64)
@@ -70,49 +72,103 @@ fn column_bits(column: u64) -> u8 {
 
 /// The data section: runs over the `d³` voxels in binvox order (x, then z,
 /// then y fastest), computed from the bricks alone: one x layer of bricks
-/// at a time ([`BrickGrid::brick_layers`]), sorted by `(z, y)`, walked one
-/// z row at a time, each brick giving the 8 voxels of its y column at that
-/// `(x, z)` by a shift and a gather, its runs of set voxels (a tile's
-/// column is one run of 8) joined by the zero runs between them. The cost
-/// grows with the occupied bricks and the number of runs, not with `d³` (a
-/// 1024³ box is 10^9 voxels, a surface in it a few million), and nothing is
-/// sorted per voxel.
+/// at a time ([`BrickGrid::brick_layers`]), its runs of set voxels found by
+/// [`layer_runs`] (a batch of layers in parallel, while the batch before
+/// is encoded), then encoded in order with the zero runs between them. The
+/// cost grows with the occupied bricks and the number of runs, not with
+/// `d³` (a 1024³ box is 10^9 voxels, a surface in it a few million), and
+/// nothing is sorted per voxel. The bytes depend only on the voxels, so
+/// they are the same for any number of threads.
 fn write_runs(w: &mut dyn Write, grid: &BrickGrid, d: u64) -> Result<()> {
     let mut rle = Rle::default();
     let mut out = Vec::with_capacity(1 << 16);
     let mut pos = 0u64; // next voxel index to encode
-    // Bit `x + 8·y` of a brick word holds (x, y): the column at x.
-    const COLUMN: u64 = 0x0101_0101_0101_0101;
-    for (bx, mut slab) in grid.brick_layers(0) {
-        slab.sort_unstable_by_key(|(k, _)| (k.z, k.y));
-        for lx in 0..8 {
-            let x = bx as u64 * 8 + lx;
-            for row in slab.chunk_by(|a, b| a.0.z == b.0.z) {
-                for lz in 0..8 {
-                    let z = row[0].0.z as u64 * 8 + lz;
-                    let line = (x * d + z) * d;
-                    for (k, m) in row {
-                        let mut ys = column_bits(m[lz as usize] >> lx & COLUMN);
-                        while ys != 0 {
-                            let y0 = ys.trailing_zeros();
-                            let len = (!(ys >> y0)).trailing_zeros();
-                            ys &= !((((1u16 << len) - 1) << y0) as u8);
-                            let at = line + k.y as u64 * 8 + u64::from(y0);
-                            rle.push_run(0, at - pos, &mut out);
-                            rle.push_run(1, u64::from(len), &mut out);
-                            pos = at + u64::from(len);
-                        }
-                    }
-                }
-            }
+    // A layer per thread at a time (their runs take 16 bytes per run of
+    // set voxels, two per y line crossing a solid).
+    let batch = layer_batch();
+    let mut layers = grid.brick_layers(0);
+    // Each thread's runs: the batch being found and the one being encoded
+    // meanwhile, kept from batch to batch (fresh vectors would fault their
+    // pages in again for every layer).
+    let (mut found, mut encoding) = (vec![Vec::new(); batch], vec![Vec::new(); batch]);
+    let mut held = 0; // layers in `encoding`
+    loop {
+        let slabs: Vec<_> = layers.by_ref().take(batch).collect();
+        let n = slabs.len();
+        if n == 0 && held == 0 {
+            break;
         }
+        let scan = |found: &mut [Vec<(u64, u64)>]| {
+            slabs
+                .into_par_iter()
+                .zip(found)
+                .for_each(|((bx, slab), runs)| layer_runs(bx, slab, d, runs))
+        };
+        let encode = || {
+            for &(s, e) in encoding[..held].iter().flatten() {
+                rle.push_run(0, s - pos, &mut out);
+                rle.push_run(1, e - s, &mut out);
+                pos = e;
+            }
+        };
+        rayon::join(|| scan(&mut found[..n]), encode);
         w.write_all(&out)?;
         out.clear();
+        std::mem::swap(&mut found, &mut encoding);
+        held = n;
     }
     rle.push_run(0, d * d * d - pos, &mut out);
     rle.finish(&mut out);
     w.write_all(&out)?;
     Ok(())
+}
+
+/// Brick layers encoded at a time: one per thread.
+fn layer_batch() -> usize {
+    rayon::current_num_threads().max(1)
+}
+
+/// Into `runs`: the runs `s..e` of set voxels (as binvox indices, rising,
+/// each as long as it can be) of the x layer of bricks `bx`: walked one z
+/// row at a time, each brick giving the 8 voxels of its y column at that
+/// `(x, z)` by a shift and a gather (a tile's column is one run of 8, going on from the
+/// last brick's), its runs joined to the open one where they touch.
+fn layer_runs(bx: i32, mut slab: Vec<(Voxel, &BrickMask)>, d: u64, runs: &mut Vec<(u64, u64)>) {
+    slab.sort_unstable_by_key(|(k, _)| (k.z, k.y));
+    runs.clear();
+    // The open run `s..e` (`s == e`: none).
+    let (mut s, mut e) = (0u64, 0u64);
+    // Bit `x + 8·y` of a brick word holds (x, y): the column at x.
+    const COLUMN: u64 = 0x0101_0101_0101_0101;
+    for lx in 0..8 {
+        let x = bx as u64 * 8 + lx;
+        for row in slab.chunk_by(|a, b| a.0.z == b.0.z) {
+            for lz in 0..8 {
+                let z = row[0].0.z as u64 * 8 + lz;
+                let line = (x * d + z) * d;
+                for (k, m) in row {
+                    let mut ys = column_bits(m[lz as usize] >> lx & COLUMN);
+                    while ys != 0 {
+                        let y0 = ys.trailing_zeros();
+                        let len = (!(ys >> y0)).trailing_zeros();
+                        ys &= !((((1u16 << len) - 1) << y0) as u8);
+                        let at = line + k.y as u64 * 8 + u64::from(y0);
+                        if at != e || e == s {
+                            if e > s {
+                                runs.push((s, e));
+                            }
+                            s = at;
+                            e = at;
+                        }
+                        e += u64::from(len);
+                    }
+                }
+            }
+        }
+    }
+    if e > s {
+        runs.push((s, e));
+    }
 }
 
 /// Run-length encoder state: the open run.
@@ -359,9 +415,16 @@ mod rle_tests {
                     dense[((v[0] as u64 * d + v[2] as u64) * d + v[1] as u64) as usize] = 1;
                 }
             }
+            // Layers are encoded a batch per thread count: the bytes may
+            // not depend on it.
+            let threads = 1 + case % 3;
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
             let mut out = Vec::new();
-            write_runs(&mut out, &grid, d).unwrap();
-            assert_eq!(out, reference(&[dense]), "case {case}");
+            pool.install(|| write_runs(&mut out, &grid, d)).unwrap();
+            assert_eq!(out, reference(&[dense]), "case {case}, {threads} threads");
             // And back: the same voxels, full bricks as tiles.
             let mut file = format!("#binvox 1\ndim {d} {d} {d}\ndata\n").into_bytes();
             file.extend_from_slice(&out);
