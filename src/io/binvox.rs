@@ -131,8 +131,9 @@ fn layer_batch() -> usize {
 /// Into `runs`: the runs `s..e` of set voxels (as binvox indices, rising,
 /// each as long as it can be) of the x layer of bricks `bx`: walked one z
 /// row at a time, each brick giving the 8 voxels of its y column at that
-/// `(x, z)` by a shift and a gather (a tile's column is one run of 8, going on from the
-/// last brick's), its runs joined to the open one where they touch.
+/// `(x, z)` by a shift and a gather (a tile's column is one run of 8,
+/// going on from the last brick's), its runs joined to the open one where
+/// they touch.
 fn layer_runs(bx: i32, mut slab: Vec<(Voxel, &BrickMask)>, d: u64, runs: &mut Vec<(u64, u64)>) {
     slab.sort_unstable_by_key(|(k, _)| (k.z, k.y));
     runs.clear();
