@@ -42,6 +42,18 @@ pub fn write(
 ) -> Result<()> {
     let d = *frame.dims.iter().max().expect("three dims");
     let o = frame.origin;
+    // The writer's own memory: the brick order (4 bytes per stored mask),
+    // a brick layer per thread (up to (d/8)² bricks of 24 bytes), never a
+    // mask per tile, and per thread the runs of two layers (found and being
+    // encoded, 16 bytes a run).
+    let (d_wide, batch) = (d as u128, layer_batch() as u128);
+    let layer = d_wide.div_ceil(8).pow(2);
+    let runs = layer_runs_bound(grid, d);
+    limit.check(
+        "binvox writer",
+        4 * grid.mask_count() as u128 + 24 * layer * batch + 2 * 16 * runs * batch,
+        1,
+    )?;
     write!(
         w,
         "#binvox 1\ndim {d} {d} {d}\ntranslate {} {} {}\nscale {}\ndata\n",
@@ -50,16 +62,24 @@ pub fn write(
         o.z,
         d as f64 * frame.voxel_size
     )?;
-    // The writer's own memory: the brick order (4 bytes per stored mask)
-    // and a brick layer per thread (up to (d/8)² bricks of 24 bytes),
-    // never a mask per tile.
-    let layer = (d as u128).div_ceil(8).pow(2);
-    limit.check(
-        "binvox writer bricks",
-        4 * grid.mask_count() as u128 + 24 * layer * layer_batch() as u128,
-        1,
-    )?;
     write_runs(w, grid, d as u64)
+}
+
+/// An upper bound of the runs of set voxels that [`layer_runs`] finds in
+/// any one x layer of bricks: at most ⌈d/2⌉ on each of its 8·d lines along
+/// y (a checkerboard's, 64·d² bytes), and at most 4 per brick line, 256
+/// per stored mask and 64 per tile, of the layer's bricks (a surface's
+/// layer has a few thousand bricks).
+fn layer_runs_bound(grid: &BrickGrid, d: usize) -> u128 {
+    let mut per_layer = vec![0u128; d.div_ceil(8)];
+    let masks = grid.bricks().take(grid.mask_count()).map(|(k, _)| (k, 256));
+    for (k, most) in masks.chain(grid.tiles().map(|k| (k, 64))) {
+        if let Some(n) = usize::try_from(k.x).ok().and_then(|x| per_layer.get_mut(x)) {
+            *n += most;
+        }
+    }
+    let worst = 8 * d as u128 * (d as u128).div_ceil(2);
+    per_layer.into_iter().max().unwrap_or(0).min(worst)
 }
 
 /// Bit `ly` of the result is bit `8 ly` of `column` (the y column of a
@@ -375,6 +395,49 @@ mod rle_tests {
             // Other bits of the word never leak in once masked to the column.
             assert_eq!(column_bits(column), b);
         }
+    }
+
+    /// The writer's memory check counts its run vectors: a checkerboard
+    /// (a run per other voxel) asks for more than a lone voxel in the same
+    /// box, and a limit between the two refuses the first before writing a
+    /// byte of its data while the second is written.
+    #[test]
+    fn memory_check_counts_the_runs() {
+        let d = 64usize;
+        let frame = GridFrame::new(glam::DVec3::ZERO, 1.0, [d; 3]);
+        let mut board = BrickGrid::new();
+        for x in 0..d as i32 {
+            for z in 0..d as i32 {
+                for y in 0..d as i32 {
+                    if (x + y + z) % 2 == 0 {
+                        board.insert(Voxel::new(x, y, z));
+                    }
+                }
+            }
+        }
+        let mut lone = BrickGrid::new();
+        lone.insert(Voxel::new(5, 6, 7));
+        // Two threads: bricks and brick order 4·512 + 2·24·64 bytes; the
+        // board's runs 2 · 32 · 8·64·32 = 1 MiB, the lone voxel's 16 KiB.
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let limit = MemoryLimit::new(256 << 10);
+            let mut out = Vec::new();
+            let err = write(&mut out, &board, &frame, limit).unwrap_err();
+            assert!(matches!(err, VoxkitError::Limits { .. }), "{err}");
+            assert!(out.is_empty(), "nothing written");
+            let mut out = Vec::new();
+            write(&mut out, &lone, &frame, limit).unwrap();
+            let (back, _) = read(&out, MemoryLimit::DEFAULT).unwrap();
+            assert_eq!(back, lone);
+            // Under the default limit the board is written and reads back.
+            let mut out = Vec::new();
+            write(&mut out, &board, &frame, MemoryLimit::DEFAULT).unwrap();
+            assert_eq!(read(&out, MemoryLimit::DEFAULT).unwrap().0, board);
+        });
     }
 
     #[test]
