@@ -853,16 +853,61 @@ impl BrickGrid {
         })
     }
 
-    /// Adds every voxel of `other` (set union), brick by brick; tiles of
-    /// `other` stay tiles.
+    /// Adds every voxel of `other` (set union); tiles of `other` stay tiles.
+    ///
+    /// ```
+    /// use voxkit::grid::{BrickGrid, Voxel};
+    /// let mut a = BrickGrid::new();
+    /// a.insert(Voxel::new(1, 2, 3));
+    /// let mut b = BrickGrid::new();
+    /// b.insert_tile(Voxel::ZERO);
+    /// b.insert(Voxel::new(40, 0, 0));
+    /// a.union_with(&b);
+    /// assert_eq!(a.count(), 512 + 1);
+    /// assert!(a.is_tile(Voxel::ZERO));
+    /// ```
     pub fn union_with(&mut self, other: &BrickGrid) {
+        // Tiles a block word at a time, then one pass dropping the masks
+        // they cover: a solid's interior is mostly tiles, and a lookup per
+        // tile was most of the union (`docs/performance-notes.md`).
+        let mut covered = false;
+        for (&block, &w) in &other.tiles {
+            let word = self.tiles.entry(block).or_insert(0);
+            covered |= w & !*word != 0;
+            *word |= w;
+        }
+        if covered && !self.keys.is_empty() {
+            self.drop_tiled_masks();
+        }
         self.index_mut().reserve(other.keys.len());
         for (k, m) in other.keys.iter().zip(&other.masks) {
             self.or_brick(*k, m);
         }
-        for b in other.tiles() {
-            self.insert_tile(b);
+    }
+
+    /// Drops the stored masks of bricks that are tiles (keeping the others
+    /// in order), so that no tile is also in `keys`.
+    fn drop_tiled_masks(&mut self) {
+        let mut k = 0;
+        for s in 0..self.keys.len() {
+            let b = self.keys[s];
+            let tiled = self
+                .tiles
+                .get(&block_of(b))
+                .is_some_and(|&w| w & block_bit(b) != 0);
+            if !tiled {
+                self.keys[k] = b;
+                self.masks[k] = self.masks[s];
+                k += 1;
+            }
         }
+        if k == self.keys.len() {
+            return;
+        }
+        self.keys.truncate(k);
+        self.masks.truncate(k);
+        self.slots = OnceLock::new();
+        self.last = None;
     }
 
     /// The union of several grids (e.g. per-thread results), in input order.
@@ -1063,6 +1108,7 @@ impl FromIterator<Voxel> for BrickGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::Rng;
 
     #[test]
     fn unique_parts_build_their_index_on_first_lookup_or_change() {
@@ -1108,5 +1154,58 @@ mod tests {
         let g = BrickGrid::from_bricks([(b(1, 1, 1), one), (b(2, 2, 2), one), (b(1, 1, 1), two)]);
         assert_eq!((g.brick_count(), g.count()), (2, 3));
         assert_eq!(g.brick(b(1, 1, 1)), Some(&[3, 0, 0, 0, 0, 0, 0, 0]));
+    }
+
+    /// A grid of random masks, full masks and tiles over a few blocks (so
+    /// that the two grids of a union share bricks and blocks).
+    fn random_grid(rng: &mut impl rand::Rng) -> BrickGrid {
+        let mut g = BrickGrid::new();
+        for _ in 0..rng.random_range(0..40) {
+            let b = Voxel::new(
+                rng.random_range(-4..8),
+                rng.random_range(-4..4),
+                rng.random_range(0..4),
+            );
+            match rng.random_range(0..4) {
+                0 => g.insert_tile(b),
+                1 => g.or_brick(b, &FULL_BRICK),
+                _ => g.or_brick(
+                    b,
+                    &std::array::from_fn(|_| rng.random::<u64>() & rng.random::<u64>()),
+                ),
+            }
+        }
+        g
+    }
+
+    #[test]
+    fn union_is_the_set_union_and_keeps_the_grid_whole() {
+        use rand::SeedableRng;
+        use std::collections::BTreeSet;
+        let key = |v: Voxel| (v.z, v.y, v.x);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        for _ in 0..300 {
+            let (mut a, b) = (random_grid(&mut rng), random_grid(&mut rng));
+            // Half the time with the index built before the union.
+            if rng.random() {
+                a.contains(Voxel::ZERO);
+            }
+            let want: BTreeSet<_> = a.iter().chain(b.iter()).map(key).collect();
+            a.union_with(&b);
+            let got: BTreeSet<_> = a.iter().map(key).collect();
+            assert_eq!(got, want);
+            assert_eq!(a.count(), want.len() as u64);
+            // No tile is also stored, and every stored brick is findable.
+            for (s, &k) in a.keys.iter().enumerate() {
+                assert!(!a.is_tile(k), "a tile also stored");
+                assert_eq!(a.index().get(&k), Some(&(s as u32)));
+            }
+            assert!(a.tiles.values().all(|&w| w != 0));
+            // Changes after the union see every brick.
+            let v = Voxel::new(rng.random_range(-32..64), rng.random_range(-32..32), 5);
+            let was = a.contains(v);
+            assert_eq!(a.remove(v), was);
+            assert!(!a.contains(v));
+        }
     }
 }

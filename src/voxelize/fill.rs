@@ -173,7 +173,14 @@ pub fn fill_interior(
             )
         })
         .collect();
-    let mut out = FillOutput::default();
+    // Sized once: growing by doubling copied (and faulted in) the masks
+    // several times over on one thread.
+    let mut out = FillOutput {
+        keys: Vec::with_capacity(parts.iter().map(|p| p.keys.len()).sum()),
+        masks: Vec::with_capacity(parts.iter().map(|p| p.masks.len()).sum()),
+        tiles: Vec::with_capacity(parts.iter().map(|p| p.tiles.len()).sum()),
+        ..FillOutput::default()
+    };
     for p in parts {
         out.keys.extend(p.keys);
         out.masks.extend(p.masks);
