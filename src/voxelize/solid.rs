@@ -603,7 +603,13 @@ pub fn solid_interior_in(
                     progress,
                 };
                 let t = std::time::Instant::now();
-                let mut rules = ctx.region_rules(Voxel::ZERO, top_size(dims));
+                // The surface's brick index, which refined bricks look up,
+                // built beside the octree rather than by the first refined
+                // brick while the other threads wait for it.
+                let (mut rules, _) = rayon::join(
+                    || ctx.region_rules(Voxel::ZERO, top_size(dims)),
+                    || surface.brick(Voxel::ZERO).is_some(),
+                );
                 rules.sort_unstable_by_key(|(k, _)| (k.z, k.y, k.x));
                 stats.regions_us = t.elapsed().as_micros() as u64;
                 stats.rule_bricks = rules.len();
@@ -850,15 +856,12 @@ impl Classifier<'_> {
     }
 
     /// Records voxel `i` of a brick with winding number `w`.
-    fn set(&self, brick_lo: Voxel, i: usize, w: f64, out: &mut BrickOut) {
+    fn set(&self, i: usize, w: f64, out: &mut BrickOut) {
         if w >= 0.5 {
             out.mask[i / 64] |= 1 << (i % 64);
         }
-        if (w - 0.5).abs() < AMBIGUITY_BAND {
-            let v = brick_lo + slot_voxel(i);
-            if !self.surface.contains(v) {
-                out.ambiguous += 1;
-            }
+        if (w - 0.5).abs() < AMBIGUITY_BAND && !out.on_surface(i) {
+            out.ambiguous += 1;
         }
     }
 }
@@ -906,7 +909,11 @@ impl BrickRefiner for Classifier<'_> {
         // ½ (or already so): from then on `far` serves the other boxes.
         let mut tight = far.local.error <= LADDER_BAND;
         let mut t_far = t.elapsed();
-        let mut out = BrickOut::default();
+        // The surface's mask, looked up once rather than per centre.
+        let mut out = BrickOut {
+            surface: self.surface.brick(key).copied().unwrap_or_default(),
+            ..BrickOut::default()
+        };
         let mut scratch = CubeScratch::default();
         for c in 0..8 {
             let before = out.pending.len();
@@ -947,7 +954,7 @@ impl BrickRefiner for Classifier<'_> {
                 Some(v) => mv as f64 + v,
                 None => self.mesh_winding(q),
             };
-            self.set(lo, i, w, &mut out);
+            self.set(i, w, &mut out);
         }
         let t_all = t.elapsed();
         self.far_ns
@@ -1064,6 +1071,8 @@ struct CubeScratch {
 struct BrickOut {
     /// The brick's inside centres so far.
     mask: BrickMask,
+    /// The brick's surface voxels (set by the caller anyway).
+    surface: BrickMask,
     /// Centres counted in [`SolidStats::ambiguous`].
     ambiguous: u64,
     /// Centres for the per-point path: (slot, line value, whether the
@@ -1071,6 +1080,14 @@ struct BrickOut {
     slow: Vec<(usize, i32, bool)>,
     /// 2³ cubes with centres the brick's bound left undecided.
     pending: Vec<Straddling>,
+}
+
+impl BrickOut {
+    /// Whether centre `i` of the brick is a surface voxel.
+    #[inline]
+    fn on_surface(&self, i: usize) -> bool {
+        self.surface[i / 64] & (1 << (i % 64)) != 0
+    }
 }
 
 /// The centres of a 2³ cube that [`Classifier::refine`] could not decide
@@ -1123,8 +1140,7 @@ impl Classifier<'_> {
         };
         for k in 0..LANES {
             if m[slots[k]].is_some() {
-                let v = brick_lo + slot_voxel(slots[k]);
-                if self.surface.contains(v) {
+                if out.on_surface(slots[k]) {
                     out.mask[slots[k] / 64] |= 1 << (slots[k] % 64);
                 } else {
                     cube.open[k] = true;
@@ -1175,7 +1191,7 @@ impl Classifier<'_> {
             if self.caps.len() <= EXACT_CAPS {
                 out.slow.push((slots[k], mv, true));
             } else {
-                self.set(brick_lo, slots[k], cube.last[k], out);
+                self.set(slots[k], cube.last[k], out);
             }
         }
     }
@@ -1209,7 +1225,7 @@ impl Classifier<'_> {
             if near.flat[k] {
                 out.slow.push((slots[k], mv, false));
             } else if (w - 0.5).abs() > error {
-                self.set(brick_lo, slots[k], w, out);
+                self.set(slots[k], w, out);
             } else {
                 rest.open[k] = true;
                 rest.last[k] = w;
