@@ -854,16 +854,6 @@ impl Classifier<'_> {
         self.boxes.fetch_add(1, Ordering::Relaxed);
         self.caps.bound(lo, hi, BETAS[0])
     }
-
-    /// Records voxel `i` of a brick with winding number `w`.
-    fn set(&self, i: usize, w: f64, out: &mut BrickOut) {
-        if w >= 0.5 {
-            out.mask[i / 64] |= 1 << (i % 64);
-        }
-        if (w - 0.5).abs() < AMBIGUITY_BAND && !out.on_surface(i) {
-            out.ambiguous += 1;
-        }
-    }
 }
 
 impl BrickRefiner for Classifier<'_> {
@@ -954,7 +944,7 @@ impl BrickRefiner for Classifier<'_> {
                 Some(v) => mv as f64 + v,
                 None => self.mesh_winding(q),
             };
-            self.set(i, w, &mut out);
+            out.set(i, w);
         }
         let t_all = t.elapsed();
         self.far_ns
@@ -1083,6 +1073,16 @@ struct BrickOut {
 }
 
 impl BrickOut {
+    /// Records centre `i` of the brick with winding number `w`.
+    fn set(&mut self, i: usize, w: f64) {
+        if w >= 0.5 {
+            self.mask[i / 64] |= 1 << (i % 64);
+        }
+        if (w - 0.5).abs() < AMBIGUITY_BAND && !self.on_surface(i) {
+            self.ambiguous += 1;
+        }
+    }
+
     /// Whether centre `i` of the brick is a surface voxel.
     #[inline]
     fn on_surface(&self, i: usize) -> bool {
@@ -1191,7 +1191,7 @@ impl Classifier<'_> {
             if self.caps.len() <= EXACT_CAPS {
                 out.slow.push((slots[k], mv, true));
             } else {
-                self.set(slots[k], cube.last[k], out);
+                out.set(slots[k], cube.last[k]);
             }
         }
     }
@@ -1225,7 +1225,7 @@ impl Classifier<'_> {
             if near.flat[k] {
                 out.slow.push((slots[k], mv, false));
             } else if (w - 0.5).abs() > error {
-                self.set(slots[k], w, out);
+                out.set(slots[k], w);
             } else {
                 rest.open[k] = true;
                 rest.last[k] = w;
