@@ -295,6 +295,10 @@ pub(super) fn result_json(
         obj.insert("winding_point_queries".into(), solid.point_queries.into());
         obj.insert("winding_box_queries".into(), solid.box_queries.into());
         obj.insert("winding_straddling".into(), solid.straddling.into());
+        obj.insert(
+            "winding_gradient_centres".into(),
+            solid.gradient_centres.into(),
+        );
         let ms = |us: u64| us as f64 / 1000.0;
         obj.insert("solid_caps_ms".into(), ms(solid.caps_us).into());
         obj.insert("solid_trees_ms".into(), ms(solid.trees_us).into());

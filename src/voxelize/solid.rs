@@ -367,6 +367,10 @@ pub struct SolidStats {
     /// field left undecided: their 2³ cube's own finer far field decides
     /// them, or the per-point path when they may lie in a cap's plane.
     pub straddling: u64,
+    /// Centres of refined bricks decided from one value per 2³ cube and
+    /// the rim's gradient bound (where the caps are large, see
+    /// [`LARGE_CAP_AREA`]), without their own near-field sum.
+    pub gradient_centres: u64,
     /// Wall time (µs) finding the boundary and the caps over it, with the
     /// rim's tree built beside the serial cycle search.
     pub caps_us: u64,
@@ -423,6 +427,16 @@ const RETRY_CUBES: usize = 1;
 /// ambiguous ([`SolidStats::ambiguous`]): their verdict hangs on how the
 /// holes are bridged.
 pub const AMBIGUITY_BAND: f64 = 0.1;
+
+/// Mean cap area (voxels²) from which refined bricks first try to decide
+/// their 2³ cubes from one value each ([`Classifier::cubes_by_gradient`]):
+/// caps larger than a brick's face (a scan's holes) leave most refined
+/// centres far from ½ beside the ones near it, and one lane sum per 4³ box
+/// decides them; where caps are small (holes everywhere, a few triangles
+/// each) the rim's gradient bound is too large for it to pay, and the
+/// extra sum per box cost Spot with 20% removed ~30% more wall time at
+/// `-r 128` (docs/performance-notes.md, 2026-12-03).
+const LARGE_CAP_AREA: f64 = 64.0;
 
 /// Barnes–Hut opening ratios: boxes and first point estimates use the
 /// first; points still undecided go on to the larger ones. With
@@ -586,6 +600,7 @@ pub fn solid_interior_in(
                 stats.trees_us = t.elapsed().as_micros() as u64;
                 let ctx = Classifier {
                     caps: caps_tree,
+                    large_caps: mean_area(&caps) >= LARGE_CAP_AREA,
                     triangles,
                     mesh: std::sync::OnceLock::new(),
                     direct_points: AtomicU64::new(0),
@@ -598,6 +613,7 @@ pub fn solid_interior_in(
                     near_ns: AtomicU64::new(0),
                     slow_ns: AtomicU64::new(0),
                     slow_points: AtomicU64::new(0),
+                    gradient_centres: AtomicU64::new(0),
                     bricks_done: AtomicU64::new(0),
                     bricks_total: AtomicU64::new(0),
                     progress,
@@ -631,6 +647,7 @@ pub fn solid_interior_in(
                 stats.point_queries = ctx.points.load(Ordering::Relaxed);
                 stats.box_queries = ctx.boxes.load(Ordering::Relaxed);
                 stats.straddling = ctx.slow_points.load(Ordering::Relaxed);
+                stats.gradient_centres = ctx.gradient_centres.load(Ordering::Relaxed);
                 stats.far_field_us = ctx.far_ns.load(Ordering::Relaxed) / 1000;
                 stats.near_field_us = ctx.near_ns.load(Ordering::Relaxed) / 1000;
                 stats.refine_us = ctx.slow_ns.load(Ordering::Relaxed) / 1000;
@@ -722,6 +739,9 @@ fn centre_box(lo: Voxel, size: i32, dims: Dims) -> Option<(DVec3, DVec3)> {
 struct Classifier<'a> {
     /// The caps `S'`.
     caps: WindingTree,
+    /// Whether the caps are large ([`LARGE_CAP_AREA`]): refined bricks
+    /// then try [`Classifier::cubes_by_gradient`] first.
+    large_caps: bool,
     /// The mesh `S` itself: it decides centres lying exactly on a cap (its
     /// winding number is continuous across the caps).
     mesh: std::sync::OnceLock<WindingTree>,
@@ -746,6 +766,8 @@ struct Classifier<'a> {
     slow_ns: AtomicU64,
     /// Centres the brick's bounds left to the per-point path.
     slow_points: AtomicU64,
+    /// Centres decided by [`Classifier::cubes_by_gradient`].
+    gradient_centres: AtomicU64,
     bricks_done: AtomicU64,
     bricks_total: AtomicU64,
     progress: Option<&'a BrickProgress<'a>>,
@@ -1006,8 +1028,19 @@ impl Classifier<'_> {
             &mut l1,
             near1,
         );
+        let decided;
+        let m = if self.large_caps && only.is_none() {
+            decided = self.cubes_by_gradient(lo, lo1, (b1lo, b1hi), &l1, near1, m, out);
+            &decided
+        } else {
+            m
+        };
         for g in 0..8 {
-            let lo2 = lo1 + Voxel::new(g & 1, (g >> 1) & 1, g >> 2) * 2;
+            let lo2 = lo1 + cube_offset(g);
+            if only.is_none() && cube_lanes(lo, lo2).0.iter().all(|&i| m[i].is_none()) {
+                // Decided by the gradient, or nothing to decide.
+                continue;
+            }
             let Some((b2lo, b2hi)) = centre_box(lo2, 2, self.dims) else {
                 continue;
             };
@@ -1037,6 +1070,87 @@ impl Classifier<'_> {
             }
         }
         far_time
+    }
+}
+
+impl Classifier<'_> {
+    /// Decides the centres of the 4³ box at `lo1` (its centres spanning
+    /// `[b1lo, b1hi]`, in the brick at `brick_lo`) if no cap meets it, one value per
+    /// 2³ cube: off the caps `w_{S'}` is smooth, so over a cube it lies
+    /// within `ρ·G` of its value at the cube's centre (`ρ` the cube's
+    /// half-diagonal, `G` the rim's bound of `|∇w_{S'}|` over the box,
+    /// [`RimTree::gradient_bound`]). The eight cubes' centres are summed
+    /// in one call of the lane kernel with the box's near list (`near1`,
+    /// far field `l1`), where each cube would otherwise take its own. A
+    /// centre is decided only when `m + w_{S'}` lies more than
+    /// [`AMBIGUITY_BAND`] plus the error from ½, so the voxels and the
+    /// ambiguity count are those of the cube path. Returns `m` with the
+    /// decided centres cleared (the cube path passes over them); the
+    /// surface's centres are left to it.
+    #[allow(clippy::too_many_arguments)]
+    fn cubes_by_gradient(
+        &self,
+        brick_lo: Voxel,
+        lo1: Voxel,
+        (b1lo, b1hi): (DVec3, DVec3),
+        l1: &LocalExpansion,
+        near1: &[u32],
+        m: &[Option<i32>; 512],
+        out: &mut BrickOut,
+    ) -> [Option<i32>; 512] {
+        let mut left = *m;
+        let surface = out.surface;
+        let open = |i: usize| m[i].is_some() && surface[i / 64] & (1 << (i % 64)) == 0;
+        let mut q = [(b1lo + b1hi) * 0.5; LANES];
+        let mut cubes = [None; LANES];
+        for (g, cube) in cubes.iter_mut().enumerate() {
+            let lo2 = lo1 + cube_offset(g);
+            if let Some((b2lo, b2hi)) = centre_box(lo2, 2, self.dims) {
+                q[g] = (b2lo + b2hi) * 0.5;
+                let slots = cube_lanes(brick_lo, lo2).0;
+                if slots.iter().any(|&i| open(i)) {
+                    *cube = Some((slots, (b2hi - b2lo).length() * 0.5));
+                }
+            }
+        }
+        if cubes.iter().all(Option::is_none) || self.caps.meets_box(b1lo, b1hi) {
+            return left;
+        }
+        let sums = self.caps.near_lanes(near1, &q);
+        // `G` only once some centre could be decided without it.
+        let (mut gradient, mut decided) = (None, 0);
+        for (g, cube) in cubes.iter().enumerate() {
+            let Some((slots, rho)) = *cube else { continue };
+            if sums.flat[g] {
+                continue;
+            }
+            let v = l1.eval(q[g]) + sums.sum[g];
+            let margin =
+                |mv: i32, error: f64| ((mv as f64 + v) - 0.5).abs() > AMBIGUITY_BAND + error;
+            let error = l1.error + sums.error[g] + ROUNDING_SLACK;
+            if !slots
+                .iter()
+                .any(|&i| open(i) && margin(m[i].unwrap_or(0), error))
+            {
+                continue;
+            }
+            let g_bound = *gradient.get_or_insert_with(|| self.caps.gradient_bound(b1lo, b1hi));
+            let error = error + rho * g_bound;
+            for i in slots {
+                if let Some(mv) = m[i]
+                    && open(i)
+                    && margin(mv, error)
+                {
+                    if mv as f64 + v > 0.5 {
+                        out.mask[i / 64] |= 1 << (i % 64);
+                    }
+                    left[i] = None;
+                    decided += 1;
+                }
+            }
+        }
+        self.gradient_centres.fetch_add(decided, Ordering::Relaxed);
+        left
     }
 }
 
@@ -1110,6 +1224,24 @@ fn cube_lanes(brick_lo: Voxel, lo2: Voxel) -> ([usize; LANES], [DVec3; LANES]) {
     });
     let q = slots.map(|i| (brick_lo + slot_voxel(i)).as_dvec3());
     (slots, q)
+}
+
+/// The mean area of `triangles` in voxels².
+fn mean_area(triangles: &[SurfaceTriangle]) -> f64 {
+    let one = VOXEL_ONE as f64;
+    let total: f64 = triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / one);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum();
+    total / triangles.len().max(1) as f64
+}
+
+/// The lowest voxel of 2³ cube `g` (0..8) of a 4³ box, from the box's.
+fn cube_offset(g: usize) -> Voxel {
+    Voxel::new(g as i32 & 1, (g as i32 >> 1) & 1, g as i32 >> 2) * 2
 }
 
 /// The offset in its brick of slot `i` (`x + 8y + 64z`).
