@@ -1100,7 +1100,7 @@ impl Classifier<'_> {
     ) -> [Option<i32>; 512] {
         let mut left = *m;
         let surface = out.surface;
-        let open = |i: usize| m[i].is_some() && surface[i / 64] & (1 << (i % 64)) == 0;
+        let open = |i: usize| m[i].is_some() && !in_mask(&surface, i);
         let mut q = [(b1lo + b1hi) * 0.5; LANES];
         let mut cubes = [None; LANES];
         for (g, cube) in cubes.iter_mut().enumerate() {
@@ -1200,8 +1200,14 @@ impl BrickOut {
     /// Whether centre `i` of the brick is a surface voxel.
     #[inline]
     fn on_surface(&self, i: usize) -> bool {
-        self.surface[i / 64] & (1 << (i % 64)) != 0
+        in_mask(&self.surface, i)
     }
+}
+
+/// Whether slot `i` is set in a brick mask.
+#[inline]
+fn in_mask(mask: &BrickMask, i: usize) -> bool {
+    mask[i / 64] & (1 << (i % 64)) != 0
 }
 
 /// The centres of a 2³ cube that [`Classifier::refine`] could not decide
