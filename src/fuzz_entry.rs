@@ -39,6 +39,7 @@ pub const TARGETS: &[&str] = &[
     "volume_nrrd",
     "volume_meta",
     "volume_npy",
+    "volume_nifti",
     "line",
     "render",
 ];
@@ -58,6 +59,7 @@ pub fn run(target: &str, data: &[u8]) -> Result<()> {
         "volume_nrrd" => volume_nrrd(data),
         "volume_meta" => volume_meta(data),
         "volume_npy" => volume_npy(data),
+        "volume_nifti" => volume_nifti(data),
         "line" => line(data),
         "render" => render(data),
         _ => Err(VoxkitError::invalid(format!("no fuzz target {target:?}"))),
@@ -258,6 +260,12 @@ pub fn volume_meta(data: &[u8]) -> Result<()> {
 /// `.npy` as a scalar volume (every dtype).
 pub fn volume_npy(data: &[u8]) -> Result<()> {
     volume(data, "fuzz.npy", "fuzz.npy")
+}
+
+/// NIfTI-1/2: a `.nii` (plain or gzipped), or a `.hdr` and its `.img`
+/// (split at [`DATA_SEPARATOR`]).
+pub fn volume_nifti(data: &[u8]) -> Result<()> {
+    volume(data, "fuzz.nii", "fuzz.hdr")
 }
 
 /// Segments longer than this (in 6-steps) are parsed but not drawn, so

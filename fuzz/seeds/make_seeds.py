@@ -173,6 +173,19 @@ def volume_npy():
     put("volume_npy", "b1_fortran", npy_bytes("|b1", DIMS, bytes(OCC), fortran=True))
 
 
+def volume_nifti():
+    """tests/data/formats/nifti/ (make_nifti.py's files): single files as they
+    are, the .hdr/.img pair joined at the separator."""
+    d = os.path.join(ROOT, "tests/data/formats/nifti")
+    for name in sorted(os.listdir(d)):
+        data = open(os.path.join(d, name), "rb").read()
+        if name.endswith(".img") or len(data) > 65536:
+            continue
+        if name.endswith(".hdr"):
+            data += SEP + open(os.path.join(d, name[:-4] + ".img"), "rb").read()
+        put("volume_nifti", "formats-" + name, data)
+
+
 def line():
     put("line", "few", "0 0 0 5 3 -2\n\n0.5 0.25 -1 -7.5 2 9\n1e1 0 0 -1e1 0.49999 3\n")
     put("line", "args", "--algo adaptive --flag-box -1,-1,-1,1,1,1 0 0 0 3 3 3\n2 2 2 -4 1 0\n")
@@ -256,5 +269,6 @@ def off():
     put("off", "quad_colors", "OFF 4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3 255 0 0\n")
 
 
-for f in (gltf, ply, stl, off, obj, binvox, npy, nrrd, vox, volume_nrrd, volume_meta, volume_npy, line, render):
+for f in (gltf, ply, stl, off, obj, binvox, npy, nrrd, vox, volume_nrrd, volume_meta, volume_npy, volume_nifti, line,
+          render):
     f()

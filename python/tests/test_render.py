@@ -63,6 +63,17 @@ def test_read_volume_and_render_it():
     )
 
 
+def test_nifti_reads_as_its_metaimage():
+    """A gzipped NIfTI-1 written by nibabel holds the MR volume of the .mhd."""
+    from conftest import ROOT
+
+    mhd = voxkit.read_volume(ROOT / "data" / "volumes" / "HeadMRVolume" / "HeadMRVolume.mhd")
+    nii = voxkit.read_volume(ROOT / "tests" / "data" / "formats" / "nifti" / "headmr.nii.gz")
+    assert nii[0].dtype == np.uint8 and nii[0].shape == (48, 62, 42)
+    for a, b in zip(mhd, nii):
+        assert np.array_equal(a, b)
+
+
 def test_binary_array_renders_as_voxels(spot):
     d = spot.dense()
     rgb_b, depth_b = voxkit.render(d, size=(40, 40), spacing=(spot.voxel_size,) * 3, origin=spot.origin + spot.voxel_size / 2)

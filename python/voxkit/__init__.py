@@ -472,7 +472,8 @@ def lines(
 
 def read_volume(path: PathLike, *, max_memory_mib: int = 4096) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Read a scalar volume: NRRD (``.nrrd``, ``.nhdr`` + raw/gzip data),
-    MetaImage (``.mhd``/``.mha``) or ``.npy``.
+    MetaImage (``.mhd``/``.mha``), NIfTI-1/2 (``.nii``, ``.nii.gz``,
+    ``.hdr`` + ``.img``) or ``.npy``.
 
     Returns ``(array, spacing, origin)``: the samples indexed ``[x, y, z]`` in
     the file's own dtype (a Fortran-ordered view of the library's buffer, no

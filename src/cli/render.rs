@@ -69,7 +69,7 @@ Meshes and binvox/npy/NRRD grids are taken as Y-up, scalar volumes and .vox file
 (override with --up)."
 )]
 pub struct RenderArgs {
-    /// Input: .binvox, .vox, .npy, .nrrd, .zarr (OME-Zarr store), .nhdr, .mhd/.mha, or a mesh (.obj, .gltf, .glb, .ply, .stl, .off).
+    /// Input: .binvox, .vox, .npy, .nrrd, .zarr (OME-Zarr store), .nhdr, .mhd/.mha, .nii/.nii.gz/.hdr (NIfTI), or a mesh (.obj, .gltf, .glb, .ply, .stl, .off).
     pub input: PathBuf,
     /// Output PNG (with --turntable N: a .gif, or a PNG name numbered per frame).
     #[arg(short = 'o', long = "output", value_name = "OUT.png")]

@@ -4,6 +4,7 @@
 
 pub mod binvox;
 pub mod image;
+mod nifti;
 pub mod npy;
 pub mod nrrd;
 pub mod volume;

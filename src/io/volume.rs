@@ -1,7 +1,9 @@
 //! Scalar-volume readers: NRRD (`.nrrd` attached, `.nhdr` detached),
 //! MetaImage (`.mhd` with a separate data file, `.mha` with the data
-//! attached) and NumPy `.npy`, all into a [`ScalarVolume`] that keeps the
-//! file's element type.
+//! attached), NIfTI-1/2 (`.nii`, `.nii.gz`, `.hdr` + `.img`; its header in
+//! `nifti.rs`, its samples through the reader here) and NumPy `.npy`, all
+//! into a [`ScalarVolume`] that keeps the file's element type (NIfTI's
+//! scaled samples excepted).
 //!
 //! What is accepted:
 //! - **NRRD** `NRRD0001`–`NRRD0005`, `dimension: 3`; `dimension: 2` (an
@@ -82,9 +84,13 @@ enum Format {
     Nrrd,
     MetaImage,
     Npy,
+    Nifti,
 }
 
 fn format_of(path: &Path) -> Option<Format> {
+    if super::nifti::is_nifti_name(path) {
+        return Some(Format::Nifti);
+    }
     let ext = path.extension()?.to_str()?.to_ascii_lowercase();
     match ext.as_str() {
         "nrrd" | "nhdr" => Some(Format::Nrrd),
@@ -95,7 +101,7 @@ fn format_of(path: &Path) -> Option<Format> {
 }
 
 /// Whether `path` has a scalar-volume extension (`.nrrd`, `.nhdr`, `.mhd`,
-/// `.mha`, `.npy`, any case). `.npy` and `.nrrd` are voxel formats too:
+/// `.mha`, `.nii`, `.nii.gz`, `.hdr`, `.npy`, any case). `.npy` and `.nrrd` are voxel formats too:
 /// callers that accept both decide by what they need.
 pub fn is_volume_path(path: &Path) -> bool {
     format_of(path).is_some()
@@ -142,8 +148,10 @@ fn read_from(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVol
         Some(Format::Nrrd) => read_nrrd(files, path, limit),
         Some(Format::MetaImage) => read_metaimage(files, path, limit),
         Some(Format::Npy) => read_npy(files, path, limit),
+        Some(Format::Nifti) => super::nifti::read_nifti(files, path, limit),
         None => Err(VoxkitError::Unsupported(
-            "not a volume file (expected .nrrd, .nhdr, .mhd, .mha or .npy)".into(),
+            "not a volume file (expected .nrrd, .nhdr, .mhd, .mha, .nii, .nii.gz, .hdr or .npy)"
+                .into(),
         )),
     };
     result.map_err(|e| name_file(path, e))
@@ -180,7 +188,7 @@ fn name_file(path: &Path, e: VoxkitError) -> VoxkitError {
 }
 
 /// Where the readers' files come from.
-enum Files<'a> {
+pub(super) enum Files<'a> {
     /// The file system.
     Disk,
     /// Memory: the header file, and one content for every other file.
@@ -192,11 +200,11 @@ enum Files<'a> {
 }
 
 /// A readable, seekable file content.
-trait ReadSeek: Read + Seek {}
+pub(super) trait ReadSeek: Read + Seek {}
 impl<T: Read + Seek> ReadSeek for T {}
 
 /// An open file of [`Files`] and its length.
-type Opened<'a> = (Box<dyn ReadSeek + 'a>, u64);
+pub(super) type Opened<'a> = (Box<dyn ReadSeek + 'a>, u64);
 
 /// A file content read at byte offsets from several threads at once.
 enum Positioned<'a> {
@@ -264,7 +272,12 @@ impl Files<'_> {
         })
     }
 
-    fn open(&self, path: &Path) -> Result<Opened<'_>> {
+    /// Whether the files are on disk (not in memory).
+    pub(super) fn is_disk(&self) -> bool {
+        matches!(self, Files::Disk)
+    }
+
+    pub(super) fn open(&self, path: &Path) -> Result<Opened<'_>> {
         if let Some(bytes) = self.in_memory(path) {
             return Ok((Box::new(io::Cursor::new(bytes)), bytes.len() as u64));
         }
@@ -274,18 +287,18 @@ impl Files<'_> {
     }
 }
 
-fn io_at(path: &Path) -> impl Fn(io::Error) -> VoxkitError + '_ {
+pub(super) fn io_at(path: &Path) -> impl Fn(io::Error) -> VoxkitError + '_ {
     move |source| VoxkitError::Io {
         path: path.to_path_buf(),
         source,
     }
 }
 
-fn invalid(m: impl Into<String>) -> VoxkitError {
+pub(super) fn invalid(m: impl Into<String>) -> VoxkitError {
     VoxkitError::Invalid(m.into())
 }
 
-fn unsupported(m: impl Into<String>) -> VoxkitError {
+pub(super) fn unsupported(m: impl Into<String>) -> VoxkitError {
     VoxkitError::Unsupported(m.into())
 }
 
@@ -295,7 +308,7 @@ fn unsupported(m: impl Into<String>) -> VoxkitError {
 
 /// Checks header sizes and the limit before anything is allocated:
 /// positive sides, `n · bytes` within `limit`, and indexable dims.
-fn checked_dims(sizes: [u64; 3], ty: ScalarType, limit: MemoryLimit) -> Result<Dims> {
+pub(super) fn checked_dims(sizes: [u64; 3], ty: ScalarType, limit: MemoryLimit) -> Result<Dims> {
     if sizes.contains(&0) {
         return Err(invalid(format!("sizes {sizes:?} must be positive")));
     }
@@ -466,7 +479,7 @@ fn is_list(value: &str) -> bool {
 // ---------------------------------------------------------------------------
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Encoding {
+pub(super) enum Encoding {
     Raw,
     Gzip,
     Bzip2,
@@ -488,7 +501,7 @@ impl Encoding {
 
 /// Bytes to skip in a data file before its samples.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Skip {
+pub(super) enum Skip {
     Bytes(u64),
     /// The samples are the last bytes of the file (NRRD `byte skip: -1`,
     /// MetaImage `HeaderSize = -1`).
@@ -505,26 +518,26 @@ impl Skip {
     }
 }
 
-/// How the samples are stored, common to NRRD and MetaImage.
+/// How the samples are stored, common to NRRD, MetaImage and NIfTI.
 #[derive(Clone, Copy, Debug)]
-struct Storage {
-    ty: ScalarType,
-    big_endian: bool,
-    encoding: Encoding,
+pub(super) struct Storage {
+    pub(super) ty: ScalarType,
+    pub(super) big_endian: bool,
+    pub(super) encoding: Encoding,
     /// Lines skipped at the start of each piece (NRRD `line skip`).
-    line_skip: u64,
+    pub(super) line_skip: u64,
     /// Bytes skipped in the file, after the lines, before decoding.
-    file_skip: Skip,
+    pub(super) file_skip: Skip,
     /// Bytes of the decompressed stream skipped (NRRD `byte skip` with
     /// gzip, which the format defines on the decompressed data).
-    decoded_skip: u64,
+    pub(super) decoded_skip: u64,
 }
 
 /// One file holding a run of the samples, from byte `start` on.
 #[derive(Clone, Debug, PartialEq, Eq)]
-struct Piece {
-    path: PathBuf,
-    start: u64,
+pub(super) struct Piece {
+    pub(super) path: PathBuf,
+    pub(super) start: u64,
 }
 
 /// The pieces a header names: the attached data (`value` absent or
@@ -687,7 +700,7 @@ macro_rules! by_type {
 
 /// Reads the `nx·ny·nz` samples (the limit was checked by
 /// [`checked_dims`]) from `pieces`, each holding an equal share.
-fn read_samples(
+pub(super) fn read_samples(
     files: &Files,
     pieces: &[Piece],
     s: &Storage,

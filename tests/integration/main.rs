@@ -15,6 +15,7 @@ mod line2d;
 mod lines;
 mod mesh_formats;
 mod mesh_io;
+mod nifti;
 mod raster;
 mod render;
 mod render_cli;
