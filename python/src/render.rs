@@ -2,13 +2,15 @@
 //! on a voxel grid or a scalar volume, with the command line's defaults.
 
 use clap::ValueEnum;
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 use ndarray::{Array1, Array2, Array3, ShapeBuilder};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use voxkit::VoxkitError;
 use voxkit::camera::{Camera, SceneAxes, ViewPreset};
-use voxkit::grid::{BrickGrid, GridFrame, MemoryLimit, ScalarVolume, VolumeData, VolumeFrame};
+use voxkit::grid::{
+    AnatomicalSpace, BrickGrid, GridFrame, MemoryLimit, ScalarVolume, VolumeData, VolumeFrame,
+};
 use voxkit::io::zarr::ChunkReader;
 use voxkit::render::{
     GridTransform, NormalMode, OccupancyGrid, PagedOccupancy, PixelWindow, RayKind, RenderBricks,
@@ -341,11 +343,16 @@ fn samples<T: numpy::Element + Copy>(a: &Bound<'_, PyAny>) -> Option<([usize; 3]
     Some((dims, view.t().iter().copied().collect()))
 }
 
-/// A `ScalarVolume` from a 3D numpy array indexed `[x, y, z]`.
+/// A `ScalarVolume` from a 3D numpy array indexed `[x, y, z]`, placed by
+/// `axes` where given (its rows as numpy holds them; its columns are the
+/// world steps of the grid axes: `world = origin + axes · (i, j, k)`), else
+/// by `spacing` along the world axes; in `space` where named.
 fn volume_of(
     array: &Bound<'_, PyAny>,
     spacing: [f64; 3],
     origin: [f64; 3],
+    axes: Option<[[f64; 3]; 3]>,
+    space: Option<&str>,
 ) -> PyResult<ScalarVolume> {
     let (dims, data) = if let Some((d, v)) = samples::<bool>(array) {
         (d, VolumeData::U8(v.into_iter().map(u8::from).collect()))
@@ -374,21 +381,52 @@ fn volume_of(
             "a volume must be a 3D array of bool, (u)int8/16/32, float32 or float64 ({got})"
         )));
     };
-    let frame = VolumeFrame::from_spacing(DVec3::from_array(origin), DVec3::from_array(spacing));
-    ScalarVolume::new(dims, data, frame).map_err(crate::to_py_err)
+    let origin = DVec3::from_array(origin);
+    let frame = match axes {
+        Some(rows) => VolumeFrame {
+            origin,
+            axes: DMat3::from_cols_array_2d(&rows).transpose(),
+        },
+        None => VolumeFrame::from_spacing(origin, DVec3::from_array(spacing)),
+    };
+    let space = space.map(space_of).transpose()?;
+    Ok(ScalarVolume::new(dims, data, frame)
+        .map_err(crate::to_py_err)?
+        .with_space(space))
+}
+
+/// An anatomical space by name: `"RAS"`, `"LAS"` or `"LPS"` (any case, or
+/// NRRD's long names).
+fn space_of(name: &str) -> PyResult<AnatomicalSpace> {
+    AnatomicalSpace::from_nrrd(name).ok_or_else(|| {
+        value_error(format!(
+            "space must be \"RAS\", \"LAS\" or \"LPS\" (or None), got {name:?}"
+        ))
+    })
+}
+
+/// The short name of an anatomical space, as [`space_of`] reads it.
+fn space_name(space: AnatomicalSpace) -> &'static str {
+    match space {
+        AnatomicalSpace::Ras => "RAS",
+        AnatomicalSpace::Las => "LAS",
+        AnatomicalSpace::Lps => "LPS",
+    }
 }
 
 /// Renders a scalar volume (`voxkit render` on a volume file): MIP,
 /// compositing or an iso-surface; a 0/1 volume without `volume` renders as
 /// a voxel grid, as on the command line. Z up.
 #[pyfunction]
-#[pyo3(signature = (array, spacing, origin, size, eye, target, up, fov, ortho, view, ray, skip, normals, background, max_memory_mib, volume, iso, window, tf, sampling, method))]
+#[pyo3(signature = (array, spacing, origin, axes, space, size, eye, target, up, fov, ortho, view, ray, skip, normals, background, max_memory_mib, volume, iso, window, tf, sampling, method))]
 #[allow(clippy::too_many_arguments)]
 pub fn render_volume<'py>(
     py: Python<'py>,
     array: &Bound<'py, PyAny>,
     spacing: [f64; 3],
     origin: [f64; 3],
+    axes: Option<[[f64; 3]; 3]>,
+    space: Option<&str>,
     size: (u32, u32),
     eye: Option<[f64; 3]>,
     target: Option<[f64; 3]>,
@@ -444,7 +482,7 @@ pub fn render_volume<'py>(
             "window must be (lo, hi) with lo < hi, got ({lo}, {hi})"
         )));
     }
-    let vol = volume_of(array, spacing, origin)?;
+    let vol = volume_of(array, spacing, origin, axes, space)?;
     let tf = tf.map(str::to_string);
     let img = run(py, || {
         if volume.is_none() && vol.is_binary() {
@@ -492,23 +530,28 @@ pub fn render_volume<'py>(
     Ok(to_arrays(py, img, v.opts.background))
 }
 
+/// What [`read_volume`] returns: `(array, spacing, origin, axes, space)`.
+type VolumeParts<'py> = (
+    Bound<'py, PyAny>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Option<&'static str>,
+);
+
 /// `(array [x, y, z] in the file's dtype (Fortran order: no copy), spacing
-/// (3,), origin (3,))` of a scalar-volume file (NRRD / NHDR, MetaImage,
-/// .npy). `origin` is the world position of voxel (0, 0, 0)'s centre;
-/// `spacing` the lengths of the voxel axes (sheared axes lose their
-/// directions here).
+/// (3,), origin (3,), axes (3, 3), space)` of a scalar-volume file (NRRD /
+/// NHDR, MetaImage, NIfTI, .npy). `origin` is the world position of voxel
+/// (0, 0, 0)'s centre; `axes` the frame, `world = origin + axes · (i, j,
+/// k)` (its columns are the grid axes' world steps); `spacing` their
+/// lengths; `space` `"RAS"`, `"LAS"`, `"LPS"` or `None`.
 #[pyfunction]
-#[pyo3(signature = (path, max_memory_mib = 4096))]
-#[allow(clippy::type_complexity)]
+#[pyo3(signature = (path, max_memory_mib))]
 pub fn read_volume<'py>(
     py: Python<'py>,
     path: std::path::PathBuf,
     max_memory_mib: u64,
-) -> PyResult<(
-    Bound<'py, PyAny>,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray1<f64>>,
-)> {
+) -> PyResult<VolumeParts<'py>> {
     let vol = run(py, || {
         voxkit::io::volume::read_volume(&path, MemoryLimit::new(max_memory_mib << 20))
     })?;
@@ -522,6 +565,7 @@ pub fn read_volume<'py>(
                 .into_any()
         };
     }
+    let (frame, space) = (vol.frame, vol.space);
     let array = match vol.data {
         VolumeData::I8(v) => arr!(v),
         VolumeData::U8(v) => arr!(v),
@@ -532,7 +576,11 @@ pub fn read_volume<'py>(
         VolumeData::F32(v) => arr!(v),
         VolumeData::F64(v) => arr!(v),
     };
-    let spacing = Array1::from_vec(vol.frame.spacing().to_array().to_vec()).into_pyarray(py);
-    let origin = Array1::from_vec(vol.frame.origin.to_array().to_vec()).into_pyarray(py);
-    Ok((array, spacing, origin))
+    let spacing = Array1::from_vec(frame.spacing().to_array().to_vec()).into_pyarray(py);
+    let origin = Array1::from_vec(frame.origin.to_array().to_vec()).into_pyarray(py);
+    let rows = frame.axes.transpose().to_cols_array();
+    let axes = Array2::from_shape_vec((3, 3), rows.to_vec())
+        .expect("3x3")
+        .into_pyarray(py);
+    Ok((array, spacing, origin, axes, space.map(space_name)))
 }

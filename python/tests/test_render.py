@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import voxkit
-from conftest import CT_HEAD, SPOT, TEAPOT
+from conftest import CT_HEAD, ROOT, SPOT, TEAPOT
 
 
 @pytest.fixture(scope="module")
@@ -65,8 +65,6 @@ def test_read_volume_and_render_it():
 
 def test_nifti_reads_as_its_metaimage():
     """A gzipped NIfTI-1 written by nibabel holds the MR volume of the .mhd."""
-    from conftest import ROOT
-
     mhd = voxkit.read_volume(ROOT / "data" / "volumes" / "HeadMRVolume" / "HeadMRVolume.mhd")
     nii = voxkit.read_volume(ROOT / "tests" / "data" / "formats" / "nifti" / "headmr.nii.gz")
     assert nii[0].dtype == np.uint8 and nii[0].shape == (48, 62, 42)
@@ -84,38 +82,67 @@ def test_binary_array_renders_as_voxels(spot):
 
 def test_png_matches_the_cli(cli, tmp_path, spot):
     """The CLI's PNG holds the same pixels (decoded with the stdlib's zlib)."""
-    import struct
-    import zlib
+    from conftest import read_png_rgb
 
     g = tmp_path / "spot.binvox"
     spot.save(g)
     png = tmp_path / "spot.png"
     cli("render", g, "-o", png, "--size", "64x48", "-q")
-    data = png.read_bytes()
-    chunks, i = [], 8
-    while i < len(data):
-        n, kind = struct.unpack(">I4s", data[i:i + 8])
-        chunks.append((kind, data[i + 8:i + 8 + n]))
-        i += 12 + n
-    w, h, depth, ctype = struct.unpack(">IIBB", chunks[0][1][:10])
-    assert (w, h, depth) == (64, 48, 8)
-    raw = zlib.decompress(b"".join(c for k, c in chunks if k == b"IDAT"))
-    bpp = {2: 3, 6: 4}[ctype]
-    stride = w * bpp
-    rows, prev = [], bytearray(stride)
-    for y in range(h):
-        f, line = raw[y * (stride + 1)], bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
-        for x in range(stride):
-            a = line[x - bpp] if x >= bpp else 0
-            b, c = prev[x], prev[x - bpp] if x >= bpp else 0
-            p = a + b - c
-            pred = [0, a, b, (a + b) // 2, a if abs(p - a) <= abs(p - b) and abs(p - a) <= abs(p - c) else (b if abs(p - b) <= abs(p - c) else c)][f]
-            line[x] = (line[x] + pred) & 0xFF
-        rows.append(bytes(line))
-        prev = line
-    cli_rgb = np.frombuffer(b"".join(rows), np.uint8).reshape(h, w, bpp)[..., :3]
     rgb, _ = voxkit.render(voxkit.load_grid(g), size=(64, 48))
-    assert np.array_equal(rgb, cli_rgb)
+    assert np.array_equal(rgb, read_png_rgb(png))
+
+
+NIFTI = ROOT / "tests" / "data" / "formats" / "nifti"
+
+
+def test_read_volume_keeps_the_nifti_frame():
+    """Rotated, flipped and scaled NIfTI frames reach Python whole: the
+    axes, origin and space nibabel gives for the same files."""
+    import json
+
+    expected = json.loads((ROOT / "tests" / "data" / "formats" / "nifti_expected.json").read_text())
+    assert len(expected) >= 8
+    for e in expected:
+        vol = voxkit.read_volume(NIFTI / e["file"])
+        assert isinstance(vol, tuple) and len(vol) == 3
+        assert list(vol.array.shape) == e["dims"], e["file"]
+        cols = np.array(e["axes"])  # each row: one grid axis's world step
+        assert np.allclose(vol.axes.T, cols, rtol=0, atol=1e-6), e["file"]
+        assert np.allclose(vol.origin, e["origin"], rtol=0, atol=1e-6), e["file"]
+        assert np.allclose(vol.spacing, np.linalg.norm(cols, axis=1)), e["file"]
+        assert vol.space == e["space"], e["file"]
+
+
+@pytest.mark.parametrize("name", ["i16_qform_be.nii", "u8_sform.nii", "headmr.nii.gz"])
+def test_oblique_volume_renders_as_the_cli(cli, tmp_path, name):
+    """render(read_volume(f)) draws what `voxkit render f` draws: the
+    rotated or flipped axes and the RAS space are kept, not only the
+    spacing."""
+    from conftest import read_png_rgb
+
+    png = tmp_path / "v.png"
+    cli("render", NIFTI / name, "-o", png, "--size", "64x48", "-q")
+    vol = voxkit.read_volume(NIFTI / name)
+    rgb, depth = voxkit.render(vol, size=(64, 48))
+    assert np.array_equal(rgb, read_png_rgb(png))
+    # The frame matters: the spacing alone draws another picture.
+    arr, spacing, origin = vol
+    plain, _ = voxkit.render(arr, spacing=spacing, origin=origin, size=(64, 48))
+    assert not np.array_equal(plain, rgb)
+
+
+def test_render_axes_and_space_are_checked():
+    arr = np.arange(27, dtype=np.float32).reshape(3, 3, 3)
+    with pytest.raises(ValueError, match="3x3"):
+        voxkit.render(arr, axes=np.eye(2), size=(8, 8))
+    with pytest.raises(ValueError, match="singular"):
+        voxkit.render(arr, axes=np.zeros((3, 3)), size=(8, 8))
+    with pytest.raises(ValueError, match="space"):
+        voxkit.render(arr, space="XYZ", size=(8, 8))
+    flipped = np.diag([-1.0, 1.0, 1.0])
+    a, _ = voxkit.render(arr, axes=flipped, size=(16, 16), view="front")
+    b, _ = voxkit.render(arr[::-1].copy(), origin=(-2.0, 0.0, 0.0), size=(16, 16), view="front")
+    assert np.array_equal(a, b)
 
 
 def test_render_pixels_is_a_window_of_the_frame(tmp_path):

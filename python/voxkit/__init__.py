@@ -37,6 +37,7 @@ from . import _voxkit
 __all__ = [
     "VoxelGrid",
     "VoxelStore",
+    "Volume",
     "load_grid",
     "open_store",
     "load_mesh",
@@ -470,17 +471,64 @@ def lines(
     return _voxkit.lines(s, kind, fb, None if threads is None else int(threads))
 
 
-def read_volume(path: PathLike, *, max_memory_mib: int = 4096) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+class Volume(tuple):
+    """A scalar volume read by :func:`read_volume`: the tuple ``(array,
+    spacing, origin)`` (unpack it as before), with the file's full frame
+    beside it.
+
+    ``array``: the samples indexed ``[x, y, z]``; ``spacing`` (3,): the
+    lengths of the voxel axes; ``origin`` (3,): the world position of voxel
+    ``(0, 0, 0)``'s *centre*; ``axes`` (3, 3): the frame, ``world = origin
+    + axes @ (i, j, k)`` (its columns are the grid axes' world steps, so
+    flipped, rotated and sheared axes keep their directions, as a NIfTI
+    affine's upper 3×3 does); ``space``: ``"RAS"``, ``"LAS"``, ``"LPS"``
+    or ``None``, the anatomical world the file places the volume in.
+    :func:`render` uses ``axes`` and ``space`` (a head stands upright, a
+    mirrored axis stays mirrored), as ``voxkit render`` does."""
+
+    def __new__(cls, array: np.ndarray, spacing: np.ndarray, origin: np.ndarray, axes: np.ndarray, space: Optional[str]):
+        self = super().__new__(cls, (array, spacing, origin))
+        self.axes = axes
+        self.space = space
+        return self
+
+    @property
+    def array(self) -> np.ndarray:
+        """The samples, indexed ``[x, y, z]``."""
+        return self[0]
+
+    @property
+    def spacing(self) -> np.ndarray:
+        """The lengths of the voxel axes (3,)."""
+        return self[1]
+
+    @property
+    def origin(self) -> np.ndarray:
+        """The world position of voxel ``(0, 0, 0)``'s centre (3,)."""
+        return self[2]
+
+    def __repr__(self) -> str:
+        a = self[0]
+        return f"Volume(shape={a.shape}, dtype={a.dtype}, spacing={self[1].tolist()}, space={self.space!r})"
+
+
+def read_volume(path: PathLike, *, max_memory_mib: int = 4096) -> Volume:
     """Read a scalar volume: NRRD (``.nrrd``, ``.nhdr`` + raw/gzip data),
     MetaImage (``.mhd``/``.mha``), NIfTI-1/2 (``.nii``, ``.nii.gz``,
     ``.hdr`` + ``.img``) or ``.npy``.
 
-    Returns ``(array, spacing, origin)``: the samples indexed ``[x, y, z]`` in
-    the file's own dtype (a Fortran-ordered view of the library's buffer, no
-    copy), the voxel spacing (3,) and the world position of voxel
-    ``(0, 0, 0)``'s *centre* (3,), as NRRD and MetaImage define it. Pass the
-    tuple to :func:`render`."""
-    return _voxkit.read_volume(os.fspath(path), int(max_memory_mib))
+    Returns a :class:`Volume`: the tuple ``(array, spacing, origin)`` (the
+    samples indexed ``[x, y, z]`` in the file's own dtype, a
+    Fortran-ordered view of the library's buffer, no copy; the voxel
+    spacing (3,); the world position of voxel ``(0, 0, 0)``'s *centre*
+    (3,), as NRRD and MetaImage define it), with the frame's ``axes`` and
+    anatomical ``space`` as attributes. Pass it to :func:`render`.
+
+    >>> vol = read_volume("data/volumes/HeadMRVolume/HeadMRVolume.mhd")
+    >>> vol.array.shape, vol.array.dtype.name, vol.space
+    ((48, 62, 42), 'uint8', None)
+    """
+    return Volume(*_voxkit.read_volume(os.fspath(path), int(max_memory_mib)))
 
 
 def render(
@@ -505,6 +553,8 @@ def render(
     method: str = "rays",
     spacing: Sequence[float] = (1.0, 1.0, 1.0),
     origin: Sequence[float] = (0.0, 0.0, 0.0),
+    axes: Optional[Any] = None,
+    space: Optional[str] = None,
     max_memory_mib: int = 4096,
     pixels: Optional[Tuple[int, int, int, int]] = None,
 ) -> Tuple[np.ndarray, np.ndarray]:
@@ -518,8 +568,13 @@ def render(
     are read); a 3D array
     indexed ``[x, y, z]`` (bool or 0/1 → voxels; other numbers → a scalar
     volume, Z up, shown by ``volume="mip"`` (default), ``"composite"`` or
-    ``"iso"``), placed by ``spacing`` and ``origin`` (voxel 0's centre); or
-    the ``(array, spacing, origin)`` tuple of :func:`read_volume`.
+    ``"iso"``), placed by ``spacing`` and ``origin`` (voxel 0's centre), or
+    by ``axes`` (3, 3) and ``origin`` (``world = origin + axes @ (i, j,
+    k)``: rotated or flipped axes) in place of ``spacing``, in the
+    anatomical ``space`` (``"RAS"``, ``"LAS"``, ``"LPS"``: the default
+    views stand the patient upright) where given; or the :class:`Volume`
+    of :func:`read_volume` (its ``axes`` and ``space`` unless given here),
+    or any ``(array, spacing, origin)`` tuple.
 
     Camera: ``eye``/``target``/``up``/``fov`` (degrees) or a ``view`` preset
     (``front back left right top bottom iso``), ``ortho``. ``ray``: ``"6"``,
@@ -566,8 +621,18 @@ def render(
     if pixels is not None:
         raise ValueError("pixels applies to a VoxelGrid (render_tiled), not to a scalar volume")
     arr = grid_or_volume
+    if isinstance(arr, Volume):
+        axes = arr.axes if axes is None else axes
+        space = arr.space if space is None else space
     if isinstance(arr, tuple) and len(arr) == 3:
         arr, spacing, origin = arr
+    if axes is not None:
+        axes = np.asarray(axes, dtype=np.float64)
+        if axes.shape != (3, 3):
+            raise ValueError(f"axes must be a 3x3 matrix, got shape {axes.shape}")
+        axes = [tuple(float(x) for x in row) for row in axes]
+    if space is not None and not isinstance(space, str):
+        raise ValueError(f"space must be \"RAS\", \"LAS\", \"LPS\" or None, got {space!r}")
     arr = np.asarray(arr)
     if arr.ndim != 3:
         raise ValueError(f"expected a VoxelGrid or a 3D array, got an array of shape {arr.shape}")
@@ -576,6 +641,8 @@ def render(
         arr,
         _vec3(spacing, "spacing"),
         _vec3(origin, "origin"),
+        axes,
+        space,
         *common,
         volume,
         None if iso is None else float(iso),

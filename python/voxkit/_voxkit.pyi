@@ -1,7 +1,7 @@
 # Type stubs of the native module `voxkit._voxkit` (python/src/*.rs).
 # The public, documented API is in `voxkit/__init__.py`, which wraps these.
 
-from typing import Optional, Tuple
+from typing import Optional, Sequence, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -103,6 +103,8 @@ def render_volume(
     array: np.ndarray,
     spacing: Vec3,
     origin: Vec3,
+    axes: Optional[Sequence[Vec3]],
+    space: Optional[str],
     size: Tuple[int, int],
     eye: Optional[Vec3],
     target: Optional[Vec3],
@@ -120,8 +122,15 @@ def render_volume(
     window: Optional[Tuple[float, float]],
     tf: Optional[str],
     sampling: str,
+    method: str,
 ) -> Image: ...
 def read_volume(
-    path: str, max_memory_mib: int = 4096
-) -> Tuple[np.ndarray, npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    path: str, max_memory_mib: int
+) -> Tuple[
+    np.ndarray,
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    Optional[str],
+]: ...
 def _panic_for_test() -> None: ...
