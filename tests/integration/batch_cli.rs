@@ -3,6 +3,7 @@
 //! reported and skipped (exit 2), nothing partial is left, reruns skip
 //! existing outputs, collisions are refused, and a shared lattice is shared.
 
+use crate::scratch::{Scratch, temp_dir as tmp};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -12,13 +13,6 @@ fn voxkit(args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("voxkit runs")
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("voxkit-batch-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 fn data(p: &str) -> PathBuf {
@@ -74,13 +68,17 @@ fn junk(n: usize, seed: u64) -> Vec<u8> {
 /// A dataset folder: good meshes (relative paths) and broken ones, plus a
 /// non-mesh file and a directory named like a mesh, which must be ignored.
 struct Dataset {
+    /// The scratch folder holding `dir` (and the tests' outputs beside
+    /// it), removed with the dataset.
+    _root: Scratch,
     dir: PathBuf,
     good: Vec<&'static str>,
     bad: Vec<&'static str>,
 }
 
 fn dataset(tag: &str) -> Dataset {
-    let dir = tmp(tag).join("in");
+    let root = tmp(tag);
+    let dir = root.join("in");
     let put = |rel: &str, bytes: &[u8]| {
         let p = dir.join(rel);
         std::fs::create_dir_all(p.parent().unwrap()).unwrap();
@@ -147,7 +145,12 @@ fn dataset(tag: &str) -> Dataset {
     // Ignored: not a mesh extension; a directory named like a mesh.
     put("notes.txt", b"not a mesh");
     put("x.obj/readme.md", b"a directory named x.obj");
-    Dataset { dir, good, bad }
+    Dataset {
+        _root: root,
+        dir,
+        good,
+        bad,
+    }
 }
 
 fn binvox_of(rel: &str) -> PathBuf {

@@ -9,9 +9,10 @@
 //! against tobj on random valid files.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 
+use crate::scratch::temp_dir;
 use glam::DVec3;
 use proptest::prelude::*;
 use voxkit::VoxkitError;
@@ -19,13 +20,6 @@ use voxkit::grid::MemoryLimit;
 use voxkit::io::read_voxels;
 use voxkit::io::volume::read_volume;
 use voxkit::mesh::{Mesh, obj, off, ply, stl};
-
-fn temp_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("voxkit-conf-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// The triangles of a mesh as corner coordinates, in order.
 fn corners(m: &Mesh) -> Vec<[DVec3; 3]> {

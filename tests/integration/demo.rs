@@ -1,13 +1,12 @@
 //! `voxkit demo` end to end: it runs from any directory (the mesh is
 //! embedded), prints both tables and writes its files.
 
+use crate::scratch::temp_dir;
 use std::process::Command;
 
 #[test]
 fn demo_prints_tables_and_writes_files() {
-    let dir = std::env::temp_dir().join(format!("voxkit-demo-test-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("demo-test");
     let out = Command::new(env!("CARGO_BIN_EXE_voxkit"))
         .args([
             "demo",

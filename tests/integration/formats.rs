@@ -4,21 +4,15 @@
 //! order, vox chunks), atomic no-overwrite writes, and bad files.
 
 use std::collections::HashSet;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
+use crate::scratch::temp_dir;
 use glam::{DVec3, IVec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use voxkit::VoxkitError;
 use voxkit::grid::{BrickGrid, GridFrame, MemoryLimit};
 use voxkit::io::{VoxelFormat, read_voxels, write_voxels, write_voxels_limited};
-
-fn temp_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("voxkit-formats-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn random_grid(rng: &mut ChaCha8Rng, dims: [usize; 3], n: usize) -> BrickGrid {
     let mut g = BrickGrid::new();

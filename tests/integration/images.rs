@@ -4,8 +4,9 @@
 //! size, and every bad input is an error that leaves no file (and no
 //! temporary file) behind.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
+use crate::scratch::temp_dir;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use voxkit::VoxkitError;
@@ -13,13 +14,6 @@ use voxkit::grid::MemoryLimit;
 use voxkit::io::image::{
     ExrImage, encode_png_rgba, read_exr, read_exr_limited, write_exr, write_gif, write_png_rgba,
 };
-
-fn temp_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("voxkit-images-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// Names of the entries in `dir`, sorted.
 fn entries(dir: &Path) -> Vec<String> {

@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use crate::scratch::temp_dir;
 use glam::DVec3;
 use voxkit::VoxkitError;
 use voxkit::grid::MemoryLimit;
@@ -119,8 +120,7 @@ fn bad_voxel_sizes_and_origins_are_refused() {
 
 #[test]
 fn cli_voxel_size_and_origin() {
-    let dir = std::env::temp_dir().join(format!("voxkit-it-lattice-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("it-lattice");
     let spot = data("data/meshes/obj/spot.obj");
     let out = dir.join("spot.binvox");
     let run = |args: &[&str]| {

@@ -22,6 +22,7 @@ mod render_cli;
 mod render_store;
 mod render_volume;
 mod report_cli;
+mod scratch;
 mod solid;
 mod strategies;
 mod topology;

@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::scratch::temp_dir;
 use glam::DVec3;
 use voxkit::VoxkitError;
 use voxkit::mesh::{Mesh, fit_frame, fit_frame_padded, fitted_voxel, obj};
@@ -12,14 +13,6 @@ fn data(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("data/meshes")
         .join(rel)
-}
-
-/// A fresh temporary directory for one test.
-fn temp_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("voxkit-meshio-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 fn close(a: DVec3, b: DVec3, tol: f64) -> bool {

@@ -9,6 +9,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use crate::scratch::temp_dir;
 use glam::{DMat3, DVec3};
 use serde_json::Value;
 use voxkit::VoxkitError;
@@ -17,13 +18,6 @@ use voxkit::io::volume::{is_volume_path, read_volume, read_volume_bytes};
 
 fn corpus() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats/nifti")
-}
-
-fn temp_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("voxkit-nifti-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 fn vec3(v: &Value) -> DVec3 {

@@ -2,6 +2,7 @@
 //! functions = brute-force oracle, exact Gouraud at vertices, z-buffer =
 //! painter's on layered scenes, batched = scalar point tests, mesh render.
 
+use crate::scratch::temp_dir;
 use glam::{DVec3, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -688,8 +689,7 @@ fn render_errors_and_png_output() {
     let bad = Camera::perspective(DVec3::Z, DVec3::ZERO, DVec3::Z, 60.0);
     assert!(render_mesh(&p, &idx, None, &bad, 8, 8, &o).is_err());
     let img = render_mesh(&p, &idx, None, &cam, 40, 30, &o).unwrap();
-    let dir = std::env::temp_dir().join(format!("voxkit-raster-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("raster");
     let path = dir.join("cube.png");
     let img2 =
         voxkit::triangle::render_mesh_png(&p, &idx, None, &cam, 40, 30, &o, &path, true).unwrap();

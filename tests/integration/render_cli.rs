@@ -2,7 +2,8 @@
 //! the JSON keys, and bad input as a typed error with exit code 2 and no
 //! file left behind.
 
-use std::path::{Path, PathBuf};
+use crate::scratch::temp_dir as tmp;
+use std::path::Path;
 use std::process::Command;
 
 fn voxkit(args: &[&str]) -> std::process::Output {
@@ -10,13 +11,6 @@ fn voxkit(args: &[&str]) -> std::process::Output {
         .args(args)
         .output()
         .expect("voxkit runs")
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("voxkit-render-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 fn data(p: &str) -> String {

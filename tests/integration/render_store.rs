@@ -8,6 +8,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use crate::scratch::temp_dir;
 use glam::{DVec3, IVec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -18,13 +19,6 @@ use voxkit::render::{
     GridTransform, NormalMode, OccupancyGrid, PagedOccupancy, RayKind, RenderBricks, RenderOptions,
     render_grid,
 };
-
-fn temp_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("voxkit-render-store-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// Scattered voxels, short runs along every axis, a ball (full bricks),
 /// voxels on chunk faces (x, y, z ≡ 63, 64 mod 64) and the far corner.

@@ -2,7 +2,8 @@
 //! every algorithm, mode and ray kind, finite numbers, the exact rows that
 //! must be exact, and SVG plots that exist and hold data; bad `-o` is exit 2.
 
-use std::path::{Path, PathBuf};
+use crate::scratch::temp_dir;
+use std::path::Path;
 use std::process::Command;
 
 fn voxkit(args: &[&str]) -> std::process::Output {
@@ -10,13 +11,6 @@ fn voxkit(args: &[&str]) -> std::process::Output {
         .args(args)
         .output()
         .unwrap()
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("voxkit-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 /// The rows (cells trimmed) of the table whose header starts with `header`.

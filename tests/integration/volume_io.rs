@@ -9,6 +9,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use crate::scratch::temp_dir;
 use flate2::Compression;
 use flate2::write::{GzEncoder, ZlibEncoder};
 use glam::{DMat3, DVec3};
@@ -31,13 +32,6 @@ const ALL_TYPES: [ScalarType; 8] = [
     ScalarType::F32,
     ScalarType::F64,
 ];
-
-fn temp_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("voxkit-volumes-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn data_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data/volumes")

@@ -10,6 +10,7 @@
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
+use crate::scratch::temp_dir;
 use glam::{DMat3, DVec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -648,8 +649,7 @@ fn corpus_matches_its_answers_and_dot_vox() {
 /// and lists them under `warnings` in `--json` (check, render).
 #[test]
 fn cli_prints_vox_warnings() {
-    let dir = std::env::temp_dir().join(format!("voxkit-vox-scene-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("vox-scene");
     let input = corpus("vox/hidden.vox");
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_voxkit"))
         .args(["check", input.to_str().unwrap(), "--tunnels", "6"])

@@ -9,6 +9,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use crate::scratch::temp_dir;
 use glam::{DQuat, DVec3, IVec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -397,8 +398,7 @@ fn max_face_voxels_are_clamped_not_dropped() {
 fn files_round_trip() {
     let mesh = Mesh::load(&data("data/meshes/obj/spot.obj")).unwrap();
     let v = run(&mesh, 40, VoxelizeMode::Thin, false);
-    let dir = std::env::temp_dir().join(format!("voxkit-it-voxelize-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("it-voxelize");
     for ext in ["binvox", "vox", "npy", "nrrd"] {
         let p = dir.join(format!("spot.{ext}"));
         write_voxels(&p, &v.grid, &v.frame, true).unwrap();
@@ -459,6 +459,8 @@ fn voxkit_json(args: &[&str]) -> serde_json::Value {
     serde_json::from_slice(&o.stdout).unwrap()
 }
 
+/// A path in the folder this file's CLI tests share (each test writes its
+/// own file names there).
 fn tmp(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("voxkit-it-cli-vox-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

@@ -2,22 +2,16 @@
 //! decoder, to the grid written; levels are max-pooled; metadata names the
 //! frame; overwrites and repairs behave.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 
+use crate::scratch::temp_dir;
 use glam::{DVec3, IVec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use voxkit::grid::{BrickGrid, GridFrame, MemoryLimit};
 use voxkit::io::zarr::{self, ShardBox};
 use voxkit::io::{read_voxels, write_voxels};
-
-fn temp_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("voxkit-zarr-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// A grid with scattered voxels, a solid ball (tiles) and the far corner.
 fn sample_grid(rng: &mut ChaCha8Rng, dims: [usize; 3], n: usize) -> BrickGrid {

@@ -4,6 +4,7 @@
 
 use std::collections::HashSet;
 
+use crate::scratch::temp_dir;
 use glam::{DQuat, DVec3, IVec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -180,9 +181,7 @@ fn merged_tiles_equal_the_whole_run_on_meshes_with_holes() {
 fn tiled_pyramid_levels_equal_the_whole_runs() {
     use voxkit::grid::MemoryLimit;
     use voxkit::io::zarr;
-    let dir = std::env::temp_dir().join(format!("voxkit-tiled-pyramid-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("tiled-pyramid");
     // Spheres on either side of the tile face x = 1024 and one across it.
     let mut obj = String::new();
     let mut base = 0;
@@ -249,9 +248,7 @@ fn tiled_pyramid_levels_equal_the_whole_runs() {
 /// rewritten between tiles is read again, never served stale.
 #[test]
 fn a_rewritten_mesh_is_reloaded_between_tiles() {
-    let dir = std::env::temp_dir().join(format!("voxkit-tile-reload-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("tile-reload");
     let mesh_path = dir.join("m.obj");
     let write_obj = |s: &IndexedMesh, extra: &str| {
         let mut obj = String::new();
