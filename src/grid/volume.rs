@@ -34,6 +34,24 @@ pub enum ScalarType {
 }
 
 impl ScalarType {
+    /// Every sample type, narrowest first (signed before unsigned).
+    ///
+    /// ```
+    /// use voxkit::grid::ScalarType;
+    /// let names: Vec<_> = ScalarType::ALL.iter().map(|t| t.name()).collect();
+    /// assert_eq!(names[..3], ["int8", "uint8", "int16"]);
+    /// ```
+    pub const ALL: [ScalarType; 8] = [
+        ScalarType::I8,
+        ScalarType::U8,
+        ScalarType::I16,
+        ScalarType::U16,
+        ScalarType::I32,
+        ScalarType::U32,
+        ScalarType::F32,
+        ScalarType::F64,
+    ];
+
     /// The type's name as NRRD and NumPy users know it: `"int8"`, `"uint8"`,
     /// `"int16"`, `"uint16"`, `"int32"`, `"uint32"`, `"float32"`, `"float64"`.
     pub fn name(self) -> &'static str {

@@ -31,19 +31,10 @@ fn vec3(v: &Value) -> DVec3 {
 }
 
 fn type_named(name: &str) -> ScalarType {
-    [
-        ScalarType::I8,
-        ScalarType::U8,
-        ScalarType::I16,
-        ScalarType::U16,
-        ScalarType::I32,
-        ScalarType::U32,
-        ScalarType::F32,
-        ScalarType::F64,
-    ]
-    .into_iter()
-    .find(|t| t.name() == name)
-    .unwrap_or_else(|| panic!("no type {name}"))
+    ScalarType::ALL
+        .into_iter()
+        .find(|t| t.name() == name)
+        .unwrap_or_else(|| panic!("no type {name}"))
 }
 
 #[test]

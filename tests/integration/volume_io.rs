@@ -22,17 +22,6 @@ use voxkit::io::volume::{is_volume_path, read_volume};
 const DIMS: [usize; 3] = [5, 3, 7];
 const N: usize = 5 * 3 * 7;
 
-const ALL_TYPES: [ScalarType; 8] = [
-    ScalarType::I8,
-    ScalarType::U8,
-    ScalarType::I16,
-    ScalarType::U16,
-    ScalarType::I32,
-    ScalarType::U32,
-    ScalarType::F32,
-    ScalarType::F64,
-];
-
 fn data_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data/volumes")
 }
@@ -167,7 +156,7 @@ fn sheared_frame() -> VolumeFrame {
 fn nrrd_every_type_endian_encoding_and_placement() {
     let dir = temp_dir("nrrd");
     let mut case = 0;
-    for ty in ALL_TYPES {
+    for ty in ScalarType::ALL {
         let vals = values(ty, N);
         for big in [false, true] {
             for gz in [false, true] {
@@ -463,7 +452,7 @@ fn met_type(ty: ScalarType) -> &'static str {
 fn metaimage_every_type_byte_order_and_compression() {
     let dir = temp_dir("meta");
     let mut case = 0;
-    for ty in ALL_TYPES {
+    for ty in ScalarType::ALL {
         let vals = values(ty, N);
         for msb in [false, true] {
             for compressed in [false, true] {
