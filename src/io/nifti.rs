@@ -363,16 +363,31 @@ fn read_prefix(files: &Files, path: &Path, n: usize) -> Result<(Vec<u8>, bool)> 
     Ok((bytes, gzip))
 }
 
-/// The `.img` beside a `.hdr` (`.img.gz` where only that exists).
+/// The `.img` beside a `.hdr`: `.img` or `.img.gz`, in the header's
+/// case or the other (`SCAN.HDR` with `SCAN.IMG`, as old Analyze tools
+/// wrote them), whichever exists; `.img` in the header's case if none does
+/// (the error then names it).
 fn image_file(files: &Files, header: &Path) -> PathBuf {
-    let img = header.with_extension("img");
-    if files.is_disk() && !img.exists() {
-        let gz = header.with_extension("img.gz");
-        if gz.exists() {
-            return gz;
+    let upper = header
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.chars().all(|c| c.is_ascii_uppercase()));
+    let cases: [&[&str]; 2] = [&["img", "img.gz"], &["IMG", "IMG.GZ", "IMG.gz"]];
+    let (own, other) = if upper {
+        (cases[1], cases[0])
+    } else {
+        (cases[0], cases[1])
+    };
+    let first = header.with_extension(own[0]);
+    if files.is_disk() {
+        for ext in own.iter().chain(other) {
+            let candidate = header.with_extension(ext);
+            if candidate.exists() {
+                return candidate;
+            }
         }
     }
-    img
+    first
 }
 
 /// Reads a NIfTI-1 or NIfTI-2 volume (see the [module docs](self)).

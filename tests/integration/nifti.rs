@@ -194,6 +194,36 @@ fn bad_headers_are_typed_errors_naming_the_file() {
 }
 
 #[test]
+fn a_pair_in_upper_case_or_with_a_gzipped_image_is_found() {
+    let dir = temp_dir("pair-names");
+    let want = read_volume(&corpus().join("u16_pair.hdr"), MemoryLimit::DEFAULT).unwrap();
+    let img = std::fs::read(corpus().join("u16_pair.img")).unwrap();
+    let hdr = std::fs::read(corpus().join("u16_pair.hdr")).unwrap();
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    std::io::Write::write_all(&mut gz, &img).unwrap();
+    let gz = gz.finish().unwrap();
+    for (header, image, bytes) in [
+        ("OLD.HDR", "OLD.IMG", &img),
+        ("old2.hdr", "old2.IMG", &img),
+        ("OLD3.HDR", "OLD3.img", &img),
+        ("zipped.hdr", "zipped.img.gz", &gz),
+        ("ZIPPED.HDR", "ZIPPED.IMG.GZ", &gz),
+    ] {
+        std::fs::write(dir.join(header), &hdr).unwrap();
+        std::fs::write(dir.join(image), bytes).unwrap();
+        let got = read_volume(&dir.join(header), MemoryLimit::DEFAULT)
+            .unwrap_or_else(|e| panic!("{header} + {image}: {e}"));
+        assert_eq!(got, want, "{header} + {image}");
+    }
+    // None there: the error names the image in the header's case.
+    std::fs::write(dir.join("ALONE.HDR"), &hdr).unwrap();
+    match read_volume(&dir.join("ALONE.HDR"), MemoryLimit::DEFAULT) {
+        Err(VoxkitError::Io { path, .. }) => assert!(path.ends_with("ALONE.IMG")),
+        other => panic!("expected an I/O error, got {other:?}"),
+    }
+}
+
+#[test]
 fn analyze_headers_read_by_method_one() {
     let dir = temp_dir("analyze");
     let mut h = std::fs::read(corpus().join("u16_pair.hdr")).unwrap();
