@@ -21,13 +21,7 @@ fn corpus() -> PathBuf {
 }
 
 fn vec3(v: &Value) -> DVec3 {
-    let a: Vec<f64> = v
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .collect();
-    DVec3::new(a[0], a[1], a[2])
+    DVec3::from_array(serde_json::from_value(v.clone()).expect("three numbers"))
 }
 
 fn type_named(name: &str) -> ScalarType {
