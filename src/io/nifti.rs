@@ -40,7 +40,8 @@ use glam::{DMat3, DQuat, DVec3};
 use rayon::prelude::*;
 
 use super::volume::{
-    Encoding, Files, Piece, Skip, Storage, checked_dims, invalid, io_at, read_samples, unsupported,
+    Encoding, Files, Piece, Skip, Storage, checked_dims, invalid, io_at, read_samples,
+    stream_error, unsupported,
 };
 use crate::error::Result;
 use crate::grid::volume::Sample;
@@ -355,7 +356,7 @@ fn read_prefix(files: &Files, path: &Path, n: usize) -> Result<(Vec<u8>, bool)> 
     };
     read.map_err(|e| {
         if gzip {
-            invalid(format!("{}: corrupt gzip data: {e}", path.display()))
+            stream_error(path, "gzip data", e)
         } else {
             io_at(path)(e)
         }

@@ -932,7 +932,7 @@ fn size_error(path: &Path, what: &str, have: u64, need: u64, ty: ScalarType) -> 
 
 /// A decoder's failure on bad input is [`VoxkitError::Invalid`]; a real
 /// I/O failure stays I/O.
-fn stream_error(path: &Path, what: &str, e: io::Error) -> VoxkitError {
+pub(super) fn stream_error(path: &Path, what: &str, e: io::Error) -> VoxkitError {
     match e.kind() {
         // Decoders report bad streams as these (bzip2 also as Other).
         io::ErrorKind::InvalidData
