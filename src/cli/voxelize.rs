@@ -299,6 +299,7 @@ pub(super) fn result_json(
             "winding_gradient_centres".into(),
             solid.gradient_centres.into(),
         );
+        obj.insert("winding_taylor_centres".into(), solid.taylor_centres.into());
         let ms = |us: u64| us as f64 / 1000.0;
         obj.insert("solid_caps_ms".into(), ms(solid.caps_us).into());
         obj.insert("solid_trees_ms".into(), ms(solid.trees_us).into());
@@ -312,6 +313,7 @@ pub(super) fn result_json(
             ms(solid.near_field_us).into(),
         );
         obj.insert("solid_refine_cpu_ms".into(), ms(solid.refine_us).into());
+        obj.insert("solid_taylor_cpu_ms".into(), ms(solid.taylor_us).into());
     }
     j
 }

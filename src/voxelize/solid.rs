@@ -59,7 +59,7 @@ use crate::voxelize::fill::{
 use crate::voxelize::surface::{SurfaceTriangle, VOXEL_ONE};
 use crate::voxelize::winding::{
     Estimate, FarField, LANES, LocalExpansion, NearLanes, NearNodes, ROUNDING_SLACK, RimTree,
-    WindingTree, soup_winding,
+    WindingTree, grid_point, soup_winding, triangle_meets_box,
 };
 
 /// A centre is inside when its winding number is at least this.
@@ -371,6 +371,11 @@ pub struct SolidStats {
     /// the rim's gradient bound (where the caps are large, see
     /// [`LARGE_CAP_AREA`]), without their own near-field sum.
     pub gradient_centres: u64,
+    /// Centres of refined bricks decided from a second-order Taylor
+    /// expansion of the mesh's own winding number about one centre of
+    /// their 8³ brick or 4³ box ([`Classifier::centres_by_taylor`]),
+    /// without far or near field of their own.
+    pub taylor_centres: u64,
     /// Wall time (µs) finding the boundary and the caps over it, with the
     /// rim's tree built beside the serial cycle search.
     pub caps_us: u64,
@@ -388,6 +393,10 @@ pub struct SolidStats {
     /// Time (µs, summed over threads) deciding the straddling centres
     /// (cube by cube, then one by one).
     pub refine_us: u64,
+    /// Time (µs, summed over threads) in the Taylor expansions of the
+    /// refined bricks, with the wall time listing the mesh's triangles
+    /// near each refined brick.
+    pub taylor_us: u64,
 }
 
 /// A progress callback for the refined bricks: `(done, total)`, called from
@@ -437,6 +446,20 @@ pub const AMBIGUITY_BAND: f64 = 0.1;
 /// extra sum per box cost Spot with 20% removed ~30% more wall time at
 /// `-r 128` (docs/performance-notes.md, 2026-12-03).
 const LARGE_CAP_AREA: f64 = 64.0;
+
+/// Rims of up to this many segments let refined bricks try
+/// [`Classifier::centres_by_taylor`] (with large caps): its gradient sums
+/// every segment directly, ~15 ns each, once per 8³ brick or 4³ box.
+const TAYLOR_RIM_SEGMENTS: usize = 4096;
+
+/// A 4³ box whose Taylor remainder bound `½ H r²` (`H` the rim's bound of
+/// the second derivatives over its brick, else over the box; `r² = 12` for
+/// the farthest centre) exceeds this is left to the far and near fields:
+/// the expansion would decide few centres that the gradient path does not.
+/// Chosen by measurement (the scanned bunny at `-r 1024`: 0.05 and 0.1
+/// decided 1.00 and 1.25 M of its 2.04 M refined centres, 0.1 in less
+/// time; docs/performance-notes.md).
+const TAYLOR_MAX_REMAINDER: f64 = 0.1;
 
 /// Barnes–Hut opening ratios: boxes and first point estimates use the
 /// first; points still undecided go on to the larger ones. With
@@ -614,6 +637,9 @@ pub fn solid_interior_in(
                     slow_ns: AtomicU64::new(0),
                     slow_points: AtomicU64::new(0),
                     gradient_centres: AtomicU64::new(0),
+                    taylor_centres: AtomicU64::new(0),
+                    taylor_ns: AtomicU64::new(0),
+                    mesh_bins: std::sync::OnceLock::new(),
                     bricks_done: AtomicU64::new(0),
                     bricks_total: AtomicU64::new(0),
                     progress,
@@ -635,6 +661,19 @@ pub fn solid_interior_in(
                     .count();
                 ctx.bricks_total
                     .store(stats.refined_bricks as u64, Ordering::Relaxed);
+                if ctx.large_caps && ctx.caps.rim_len() <= TAYLOR_RIM_SEGMENTS {
+                    let t = std::time::Instant::now();
+                    let refined = rules
+                        .iter()
+                        .filter(|(_, r)| *r == BrickRule::Refine)
+                        .map(|(k, _)| *k)
+                        .collect();
+                    if let Some(bins) = MeshBins::new(triangles, refined) {
+                        let _ = ctx.mesh_bins.set(bins);
+                    }
+                    ctx.taylor_ns
+                        .fetch_add(t.elapsed().as_nanos() as u64, Ordering::Relaxed);
+                }
                 let out = fill_interior(
                     closed,
                     dims,
@@ -648,6 +687,8 @@ pub fn solid_interior_in(
                 stats.box_queries = ctx.boxes.load(Ordering::Relaxed);
                 stats.straddling = ctx.slow_points.load(Ordering::Relaxed);
                 stats.gradient_centres = ctx.gradient_centres.load(Ordering::Relaxed);
+                stats.taylor_centres = ctx.taylor_centres.load(Ordering::Relaxed);
+                stats.taylor_us = ctx.taylor_ns.load(Ordering::Relaxed) / 1000;
                 stats.far_field_us = ctx.far_ns.load(Ordering::Relaxed) / 1000;
                 stats.near_field_us = ctx.near_ns.load(Ordering::Relaxed) / 1000;
                 stats.refine_us = ctx.slow_ns.load(Ordering::Relaxed) / 1000;
@@ -768,6 +809,14 @@ struct Classifier<'a> {
     slow_points: AtomicU64,
     /// Centres decided by [`Classifier::cubes_by_gradient`].
     gradient_centres: AtomicU64,
+    /// Centres decided by [`Classifier::centres_by_taylor`], and the time
+    /// spent there.
+    taylor_centres: AtomicU64,
+    taylor_ns: AtomicU64,
+    /// The mesh's triangles near each refined brick, for
+    /// [`Classifier::centres_by_taylor`]: set when the caps are large and
+    /// their rim short enough for it to pay.
+    mesh_bins: std::sync::OnceLock<MeshBins>,
     bricks_done: AtomicU64,
     bricks_total: AtomicU64,
     progress: Option<&'a BrickProgress<'a>>,
@@ -896,6 +945,32 @@ impl BrickRefiner for Classifier<'_> {
         let Some((blo, bhi)) = centre_box(lo, 8, self.dims) else {
             return ([0u64; 8], 0);
         };
+        // The surface's mask, looked up once rather than per centre.
+        let mut out = BrickOut {
+            surface: self.surface.brick(key).copied().unwrap_or_default(),
+            ..BrickOut::default()
+        };
+        // Centres the caller adds anyway (its surface) need no winding
+        // number; `left` holds the line values of those still to decide.
+        let mut left = *m;
+        for (i, v) in left.iter_mut().enumerate() {
+            if v.is_some() && out.on_surface(i) {
+                out.mask[i / 64] |= 1 << (i % 64);
+                *v = None;
+            }
+        }
+        if let Some(bins) = self.mesh_bins.get() {
+            let t = std::time::Instant::now();
+            let decided = self.centres_by_taylor(lo, bins.of(key), m, &mut left, &mut out);
+            self.taylor_centres.fetch_add(decided, Ordering::Relaxed);
+            self.taylor_ns
+                .fetch_add(t.elapsed().as_nanos() as u64, Ordering::Relaxed);
+            if left.iter().all(Option::is_none) {
+                self.brick_done();
+                return (out.mask, out.ambiguous);
+            }
+        }
+        let m = &left;
         let t = std::time::Instant::now();
         // The opening ratio grows until the far field's bound over the brick
         // is below [`LOOSE_BAND`], then for the cubes left straddling ½ until
@@ -921,11 +996,6 @@ impl BrickRefiner for Classifier<'_> {
         // ½ (or already so): from then on `far` serves the other boxes.
         let mut tight = far.local.error <= LADDER_BAND;
         let mut t_far = t.elapsed();
-        // The surface's mask, looked up once rather than per centre.
-        let mut out = BrickOut {
-            surface: self.surface.brick(key).copied().unwrap_or_default(),
-            ..BrickOut::default()
-        };
         let mut scratch = CubeScratch::default();
         for c in 0..8 {
             let before = out.pending.len();
@@ -977,11 +1047,261 @@ impl BrickRefiner for Classifier<'_> {
             .fetch_add((t_all - t_near).as_nanos() as u64, Ordering::Relaxed);
         self.slow_points
             .fetch_add((straddling + on_planes) as u64, Ordering::Relaxed);
+        self.brick_done();
+        (out.mask, out.ambiguous)
+    }
+}
+
+impl Classifier<'_> {
+    /// Counts a refined brick as decided and reports progress.
+    fn brick_done(&self) {
         let done = self.bricks_done.fetch_add(1, Ordering::Relaxed) + 1;
         if let Some(p) = self.progress {
             p(done, self.bricks_total.load(Ordering::Relaxed));
         }
-        (out.mask, out.ambiguous)
+    }
+
+    /// Decides centres of the brick at `brick_lo` (`left` their line
+    /// values, `None` once decided) from second-order Taylor expansions of
+    /// the mesh's own winding number `w_S = m + w_{S'}`, one about a centre
+    /// `c` of each 4³ box. Across a cap `w_{S'}` jumps by one and `m` by
+    /// minus one, so `w_S` is smooth wherever the mesh `S` itself is not: if
+    /// no triangle of `near` (the mesh's triangles near the brick) meets the
+    /// box, `w_S(q) = w_S(c) + ∇w_S(c)·(q − c) + R` with
+    /// `|R| ≤ ½ H |q − c|²`, `H` the rim's bound of the second derivatives
+    /// over the brick ([`RimTree::hessian_bound`]). `w_S(c)` is `m(c)` plus
+    /// the caps' sum at `c` (the eight boxes' in one call of the lane
+    /// kernel, with a far field where the caps are many), `∇w_S(c)` the
+    /// rim's Biot–Savart field summed exactly ([`RimTree::gradient_lanes`]).
+    /// A centre is decided when its value lies farther from ½ than the sum
+    /// of the bounds, so the verdict is the exact one; the others are left
+    /// to the far and near fields. Where a scan's holes are wide, `H` is
+    /// small over most of the band of centres near ½ that the cube paths
+    /// sum one by one. Returns the number decided.
+    fn centres_by_taylor(
+        &self,
+        brick_lo: Voxel,
+        near: &[u32],
+        m: &[Option<i32>; 512],
+        left: &mut [Option<i32>; 512],
+        out: &mut BrickOut,
+    ) -> u64 {
+        let Some((blo, bhi)) = centre_box(brick_lo, 8, self.dims) else {
+            return 0;
+        };
+        // A box's centres lie within √12 of its expansion point. The
+        // brick's bound serves every box when it is small enough; else each
+        // box tries its own.
+        let within = |hessian: f64| 0.5 * hessian * 12.0 <= TAYLOR_MAX_REMAINDER;
+        let brick_hessian = Some(self.caps.hessian_bound(blo, bhi)).filter(|&h| within(h));
+        let slot = |v: Voxel| {
+            let l = v - brick_lo;
+            (l.x + 8 * l.y + 64 * l.z) as usize
+        };
+        let triangles: Vec<[DVec3; 3]> = near
+            .iter()
+            .map(|&t| self.triangles[t as usize].map(grid_point))
+            .filter(|t| triangle_meets_box(t, blo, bhi))
+            .collect();
+        // Each 4³ box with centres to decide and no triangle of the mesh:
+        // its centres' box and expansion point.
+        let mut boxes = [None; LANES];
+        let mut points = [(blo + bhi) * 0.5; LANES];
+        for (g, (b, point)) in boxes.iter_mut().zip(&mut points).enumerate() {
+            let g = g as i32;
+            let lo1 = brick_lo + Voxel::new(g & 1, (g >> 1) & 1, g >> 2) * 4;
+            let Some((lo, hi)) = centre_box(lo1, 4, self.dims) else {
+                continue;
+            };
+            let centre = (lo1 + Voxel::splat(2)).min(hi.as_ivec3());
+            *point = centre.as_dvec3();
+            let open = box_voxels(lo, hi).any(|v| left[slot(v)].is_some());
+            if !open
+                || m[slot(centre)].is_none()
+                || triangles.iter().any(|t| triangle_meets_box(t, lo, hi))
+            {
+                continue;
+            }
+            let hessian = brick_hessian
+                .or_else(|| Some(self.caps.hessian_bound(lo, hi)).filter(|&h| within(h)));
+            if let Some(hessian) = hessian {
+                *b = Some((lo, hi, hessian));
+            }
+        }
+        if boxes.iter().all(Option::is_none) {
+            return 0;
+        }
+        // The caps' sum at the eight points: every cap in lanes where they
+        // are few, else a far field over the brick and its near leaves.
+        let beta = if self.caps.len() <= EXACT_CAPS {
+            f64::INFINITY
+        } else {
+            BETAS[1]
+        };
+        let far = self.caps.far_field(blo, bhi, beta);
+        let sums = self.caps.near_lanes(&far.near, &points);
+        let gradients = self.caps.rim_gradient_lanes(&points);
+        let mut decided = 0;
+        for g in 0..LANES {
+            let (Some((lo, hi, hessian)), Some((gradient, gradient_error))) =
+                (boxes[g], gradients[g])
+            else {
+                continue;
+            };
+            let c = points[g];
+            let Some(mc) = m[slot(c.as_ivec3())] else {
+                continue;
+            };
+            if sums.flat[g] {
+                continue;
+            }
+            let w0 = mc as f64 + far.local.eval(c) + sums.sum[g];
+            let e0 = far.local.error + sums.error[g] + ROUNDING_SLACK;
+            for v in box_voxels(lo, hi) {
+                let i = slot(v);
+                if left[i].is_none() {
+                    continue;
+                }
+                let d = v.as_dvec3() - c;
+                let r2 = d.length_squared();
+                let w = w0 + gradient.dot(d);
+                let error = e0 + r2.sqrt() * gradient_error + 0.5 * hessian * r2;
+                if (w - 0.5).abs() > error {
+                    out.set(i, w);
+                    left[i] = None;
+                    decided += 1;
+                }
+            }
+        }
+        decided
+    }
+}
+
+/// The voxels of the box of centres `[lo, hi]`.
+fn box_voxels(lo: DVec3, hi: DVec3) -> impl Iterator<Item = Voxel> {
+    let (lo, hi) = (lo.as_ivec3(), hi.as_ivec3());
+    (lo.z..=hi.z).flat_map(move |z| {
+        (lo.y..=hi.y).flat_map(move |y| (lo.x..=hi.x).map(move |x| Voxel::new(x, y, z)))
+    })
+}
+
+/// Largest bounding box (in bricks) of the refined bricks for which
+/// [`MeshBins`] is built: one bit per brick, 8 MiB at most.
+const MESH_BINS_BITS: i64 = 1 << 26;
+
+/// The mesh's triangles whose bounding box meets each refined brick's box
+/// of centres, as lists per brick (keys in `(z, y, x)` order).
+struct MeshBins {
+    keys: Vec<Voxel>,
+    starts: Vec<u32>,
+    triangles: Vec<u32>,
+}
+
+impl MeshBins {
+    /// The lists for bricks `keys` (in `(z, y, x)` order) over `triangles`;
+    /// `None` when the keys' bounding box holds more than [`MESH_BINS_BITS`]
+    /// bricks (or there are none). A triangle spanning more bricks than there are keys is matched
+    /// against every key instead of looking up the bricks it spans.
+    fn new(triangles: &[SurfaceTriangle], keys: Vec<Voxel>) -> Option<Self> {
+        let order = |k: &Voxel| (k.z, k.y, k.x);
+        let brick = 8 * VOXEL_ONE;
+        // The keys as bits over their bounding box: most triangles are far
+        // from every refined brick, and a bit costs less than a search.
+        let kmin = keys.iter().fold(Voxel::MAX, |a, k| a.min(*k));
+        let kmax = keys.iter().fold(Voxel::MIN, |a, k| a.max(*k));
+        let extent = (kmax - kmin + Voxel::ONE).max(Voxel::ZERO).as_i64vec3();
+        let bits = extent.x * extent.y * extent.z;
+        if keys.is_empty() || bits > MESH_BINS_BITS {
+            return None;
+        }
+        let bit = |k: Voxel| {
+            let l = (k - kmin).as_i64vec3();
+            (l.x + extent.x * (l.y + extent.y * l.z)) as usize
+        };
+        let mut occupied = vec![0u64; (bits as usize).div_ceil(64)];
+        for k in &keys {
+            occupied[bit(*k) / 64] |= 1 << (bit(*k) % 64);
+        }
+        let pairs_of = |(i, t): (usize, &SurfaceTriangle), out: &mut Vec<(u32, u32)>| {
+            // Bricks whose centres `[8k, 8k + 7]` the triangle's box may meet
+            // (one more below than needed, for the floor), among the keys'.
+            let span = |a: usize| {
+                let mn = t.iter().map(|p| p[a]).min().unwrap_or(0);
+                let mx = t.iter().map(|p| p[a]).max().unwrap_or(0);
+                (
+                    ((mn - 7 * VOXEL_ONE).div_euclid(brick) as i32).max(kmin[a]),
+                    (mx.div_euclid(brick) as i32).min(kmax[a]),
+                )
+            };
+            let (x, y, z) = (span(0), span(1), span(2));
+            if x.0 > x.1 || y.0 > y.1 || z.0 > z.1 {
+                return;
+            }
+            let count = [x, y, z]
+                .iter()
+                .map(|(a, b)| (i64::from(*b) - i64::from(*a) + 1) as u64)
+                .product::<u64>();
+            let inside = |k: &Voxel| {
+                (x.0..=x.1).contains(&k.x)
+                    && (y.0..=y.1).contains(&k.y)
+                    && (z.0..=z.1).contains(&k.z)
+            };
+            if count > keys.len() as u64 {
+                for (j, k) in keys.iter().enumerate() {
+                    if inside(k) {
+                        out.push((j as u32, i as u32));
+                    }
+                }
+                return;
+            }
+            for kz in z.0..=z.1 {
+                for ky in y.0..=y.1 {
+                    for kx in x.0..=x.1 {
+                        let b = bit(Voxel::new(kx, ky, kz));
+                        if occupied[b / 64] & (1 << (b % 64)) == 0 {
+                            continue;
+                        }
+                        if let Ok(j) = keys.binary_search_by_key(&(kz, ky, kx), order) {
+                            out.push((j as u32, i as u32));
+                        }
+                    }
+                }
+            }
+        };
+        let mut pairs: Vec<(u32, u32)> = triangles
+            .par_iter()
+            .enumerate()
+            .fold(Vec::new, |mut acc, it| {
+                pairs_of(it, &mut acc);
+                acc
+            })
+            .flatten_iter()
+            .collect();
+        pairs.par_sort_unstable();
+        let mut starts = vec![0u32; keys.len() + 1];
+        for &(j, _) in &pairs {
+            starts[j as usize + 1] += 1;
+        }
+        for j in 0..keys.len() {
+            starts[j + 1] += starts[j];
+        }
+        let triangles = pairs.into_iter().map(|(_, t)| t).collect();
+        Some(MeshBins {
+            keys,
+            starts,
+            triangles,
+        })
+    }
+
+    /// The triangles listed for brick `key` (none for a brick not listed).
+    fn of(&self, key: Voxel) -> &[u32] {
+        match self
+            .keys
+            .binary_search_by_key(&(key.z, key.y, key.x), |k| (k.z, k.y, k.x))
+        {
+            Ok(j) => &self.triangles[self.starts[j] as usize..self.starts[j + 1] as usize],
+            Err(_) => &[],
+        }
     }
 }
 
@@ -1018,6 +1338,16 @@ impl Classifier<'_> {
         let Some((b1lo, b1hi)) = centre_box(lo1, 4, self.dims) else {
             return t.elapsed();
         };
+        // A box whose centres are all decided (by a Taylor expansion, or
+        // the surface) needs no far field.
+        let open = |g: usize| {
+            cube_lanes(lo, lo1 + cube_offset(g))
+                .0
+                .map(|i| m[i].is_some())
+        };
+        if only.is_none() && !(0..8).any(|g| open(g).contains(&true)) {
+            return t.elapsed();
+        }
         let mut l1 = far.local.recentred((b1lo + b1hi) * 0.5);
         self.caps.split(
             &far.near,

@@ -389,6 +389,37 @@ fn centres_decided_by_the_gradient_match_brute_force() {
     }
 }
 
+/// A hole many bricks wide: refined bricks far from its rim decide most of
+/// their centres from a second-order Taylor expansion per 4³ box (the
+/// mesh's winding number is smooth across the caps), including the centres
+/// within the ambiguity band that the gradient path leaves to the near
+/// field. Those verdicts, and the ambiguity count, against brute force.
+#[test]
+fn centres_decided_by_taylor_expansions_match_brute_force() {
+    let dims = [64, 64, 64];
+    for (name, cut) in [("wide polar hole", 0.3), ("open bowl", -0.2)] {
+        let m = IndexedMesh::uv_sphere(DVec3::splat(32.0), 29.3, 10, 12);
+        let mut d = m.clone();
+        d.faces.retain(|f| {
+            let c = f.iter().map(|&i| m.vertices[i as usize]).sum::<DVec3>() / 3.0;
+            (c.z - 32.0) / 29.3 < cut
+        });
+        let (tris, fixed) = quantized(&d);
+        let (g, stats) =
+            solid_interior(&tris, &[], dims, InsideTest::Winding, &BrickGrid::new()).unwrap();
+        let ambiguous = assert_matches_winding(name, &g, &fixed, dims);
+        let slack = ambiguous / 5 + 10;
+        assert!(
+            stats.ambiguous.abs_diff(ambiguous) <= slack,
+            "{name}: ambiguous {} vs brute force {ambiguous}",
+            stats.ambiguous
+        );
+        // Not vacuous: the expansions decided centres, ambiguous ones too.
+        assert!(stats.taylor_centres > 5000, "{name}: {stats:?}");
+        assert!(ambiguous > 1000, "{name}: {ambiguous}");
+    }
+}
+
 /// A real mesh through the whole pipeline: Spot with a fifth of its faces
 /// removed, solid at `-r 24`, against the brute-force winding number of the
 /// voxelized (1/256-voxel) mesh off the thin surface.
