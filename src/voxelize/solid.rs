@@ -11,7 +11,9 @@
 //!   shared by the brick (a local expansion with a rigorous error bound,
 //!   refined for its sub-cubes), the near field summed exactly in vector
 //!   lanes, and the 2³ cubes with centres whose bound straddles ½ get a
-//!   finer far field of their own, in lanes too. With [`InsideTest::Parity`]:
+//!   finer far field of their own, in lanes too. Where holes are wide, a
+//!   second-order Taylor expansion of the mesh's own winding number per 4³
+//!   box (smooth across the caps) decides most centres first. With [`InsideTest::Parity`]:
 //!   exact crossing parity along x, for watertight meshes. Output in tiles.
 //!
 //! The references it is tested against:
@@ -457,8 +459,8 @@ const TAYLOR_RIM_SEGMENTS: usize = 4096;
 /// the farthest centre) exceeds this is left to the far and near fields:
 /// the expansion would decide few centres that the gradient path does not.
 /// Chosen by measurement (the scanned bunny at `-r 1024`: 0.05 and 0.1
-/// decided 1.00 and 1.25 M of its 2.04 M refined centres, 0.1 in less
-/// time; docs/performance-notes.md).
+/// decided 1.00 and 1.25 M of its 2.04 M refined centres in times within
+/// noise of each other; docs/performance-notes.md).
 const TAYLOR_MAX_REMAINDER: f64 = 0.1;
 
 /// Barnes–Hut opening ratios: boxes and first point estimates use the
