@@ -888,27 +888,18 @@ impl RimTree {
     /// outside, the points' inside, so that it vectorises); `None` for a
     /// point where [`RimTree::gradient`] gives none.
     pub fn gradient_lanes(&self, q: &[DVec3; LANES]) -> [Option<(DVec3, f64)>; LANES] {
-        let mut sum = [[0.0f64; LANES]; 3];
-        let mut scale = [0.0f64; LANES];
-        let mut ok = [true; LANES];
         let qs: [[f64; LANES]; 3] = [0, 1, 2].map(|k| q.map(|p| p[k]));
-        for [a, b] in &self.segments {
-            for i in 0..LANES {
-                let u = [a.x - qs[0][i], a.y - qs[1][i], a.z - qs[2][i]];
-                let v = [b.x - qs[0][i], b.y - qs[1][i], b.z - qs[2][i]];
-                let lu = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
-                let lv = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-                let uv = lu * lv;
-                let dot = u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-                let den = uv + dot;
-                ok[i] &= den > 0.01 * uv && uv.is_finite();
-                let f = (lu + lv) / (uv * den);
-                sum[0][i] += (u[1] * v[2] - u[2] * v[1]) * f;
-                sum[1][i] += (u[2] * v[0] - u[0] * v[2]) * f;
-                sum[2][i] += (u[0] * v[1] - u[1] * v[0]) * f;
-                scale[i] += uv * f;
-            }
-        }
+        #[cfg(target_arch = "x86_64")]
+        let (sum, scale, ok) = if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: AVX2 was just detected on this CPU; the loop uses no
+            // intrinsics, only the wider registers (no fused steps: the
+            // same bits as the portable form).
+            unsafe { rim_field_avx2(&self.segments, &qs) }
+        } else {
+            rim_field(&self.segments, &qs)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let (sum, scale, ok) = rim_field(&self.segments, &qs);
         let relative = 1e-12 + self.segments.len() as f64 * f64::EPSILON;
         std::array::from_fn(|i| {
             ok[i].then(|| {
@@ -953,6 +944,48 @@ impl RimTree {
         }
         sum
     }
+}
+
+/// The rim's field at eight points ([`RimTree::gradient_lanes`]): per
+/// lane the sum of `(u × v) f`, `f = (|u| + |v|) / (|u||v| (|u||v| + u·v))`,
+/// the sum of `|u||v| f` (the terms' sizes) and whether every segment kept
+/// `|u||v| + u·v` above a hundredth of `|u||v|`. Segments outside, lanes
+/// inside, so that the lanes vectorise.
+#[inline(always)]
+fn rim_field(segments: &[[DVec3; 2]], qs: &[[f64; LANES]; 3]) -> RimField {
+    let mut sum = [[0.0f64; LANES]; 3];
+    let mut scale = [0.0f64; LANES];
+    let mut ok = [true; LANES];
+    for [a, b] in segments {
+        for i in 0..LANES {
+            let u = [a.x - qs[0][i], a.y - qs[1][i], a.z - qs[2][i]];
+            let v = [b.x - qs[0][i], b.y - qs[1][i], b.z - qs[2][i]];
+            let lu = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+            let lv = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            let uv = lu * lv;
+            let dot = u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+            let den = uv + dot;
+            ok[i] &= den > 0.01 * uv && uv.is_finite();
+            let f = (lu + lv) / (uv * den);
+            sum[0][i] += (u[1] * v[2] - u[2] * v[1]) * f;
+            sum[1][i] += (u[2] * v[0] - u[0] * v[2]) * f;
+            sum[2][i] += (u[0] * v[1] - u[1] * v[0]) * f;
+            scale[i] += uv * f;
+        }
+    }
+    (sum, scale, ok)
+}
+
+/// [`rim_field`]'s sums per lane: field, sizes, trusted.
+type RimField = ([[f64; LANES]; 3], [f64; LANES], [bool; LANES]);
+
+/// [`rim_field`] compiled for AVX2: four lanes to a register instead of
+/// two (with a root per centre dropped from the solid fill's decisions,
+/// the scanned bunny's expansions went from 112 to 87 ms of CPU).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn rim_field_avx2(segments: &[[DVec3; 2]], qs: &[[f64; LANES]; 3]) -> RimField {
+    rim_field(segments, qs)
 }
 
 /// Nodes of the tree over `n` triangles (leaves of at most [`LEAF`], split

@@ -21,8 +21,8 @@ use voxkit::voxelize::conservative::FixedTriangle;
 use voxkit::voxelize::pipeline::{VoxelizeMode, VoxelizeOptions, to_reference, voxelize_mesh};
 use voxkit::voxelize::shapes::{IndexedMesh, random_rotation};
 use voxkit::voxelize::solid::{
-    AMBIGUITY_BAND, Axis, InsideTest, WINDING_THRESHOLD, solid_interior, solid_voxels_parity,
-    solid_voxels_parity_axis, solid_voxels_winding, winding_number,
+    AMBIGUITY_BAND, Axis, InsideTest, SolidStats, WINDING_THRESHOLD, solid_interior,
+    solid_voxels_parity, solid_voxels_parity_axis, solid_voxels_winding, winding_number,
 };
 use voxkit::voxelize::surface::SurfaceTriangle;
 
@@ -333,6 +333,26 @@ fn assert_matches_winding(
     ambiguous
 }
 
+/// Solid mode's interior of `d` in `dims` against brute force
+/// ([`assert_matches_winding`]), with its ambiguity count within a fifth
+/// (plus ten) of the brute-force count: the count comes from bounded
+/// estimates, so it may miss or add voxels whose `w` is within the
+/// estimate's error of the band. Returns the fill's counts and the
+/// brute-force ambiguity count.
+fn solid_against_brute_force(name: &str, d: &IndexedMesh, dims: [usize; 3]) -> (SolidStats, u64) {
+    let (tris, fixed) = quantized(d);
+    let (g, stats) =
+        solid_interior(&tris, &[], dims, InsideTest::Winding, &BrickGrid::new()).unwrap();
+    let ambiguous = assert_matches_winding(name, &g, &fixed, dims);
+    let slack = ambiguous / 5 + 10;
+    assert!(
+        stats.ambiguous.abs_diff(ambiguous) <= slack,
+        "{name}: ambiguous {} vs brute force {ambiguous}",
+        stats.ambiguous
+    );
+    (stats, ambiguous)
+}
+
 /// The generalized winding number decides, whatever the damage: the interior
 /// agrees with `w ≥ ½` at every centre off the surface.
 #[test]
@@ -340,19 +360,7 @@ fn winding_interior_matches_brute_force_on_damaged_meshes() {
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     for (base, m) in closed_indexed() {
         for (damage, d) in damaged(&m, &mut rng) {
-            let name = format!("{base}, {damage}");
-            let (tris, fixed) = quantized(&d);
-            let (g, stats) =
-                solid_interior(&tris, &[], DIMS, InsideTest::Winding, &BrickGrid::new()).unwrap();
-            let ambiguous = assert_matches_winding(&name, &g, &fixed, DIMS);
-            // The ambiguity count comes from bounded estimates: it may miss
-            // or add voxels whose w is within the estimate's error of the band.
-            let slack = ambiguous / 5 + 10;
-            assert!(
-                stats.ambiguous.abs_diff(ambiguous) <= slack,
-                "{name}: ambiguous {} vs brute force {ambiguous}",
-                stats.ambiguous
-            );
+            solid_against_brute_force(&format!("{base}, {damage}"), &d, DIMS);
         }
     }
 }
@@ -374,16 +382,7 @@ fn centres_decided_by_the_gradient_match_brute_force() {
         });
         // And a few scattered single holes.
         d.faces.retain(|_| rng.random_range(0..40) != 0);
-        let (tris, fixed) = quantized(&d);
-        let (g, stats) =
-            solid_interior(&tris, &[], dims, InsideTest::Winding, &BrickGrid::new()).unwrap();
-        let ambiguous = assert_matches_winding(name, &g, &fixed, dims);
-        let slack = ambiguous / 5 + 10;
-        assert!(
-            stats.ambiguous.abs_diff(ambiguous) <= slack,
-            "{name}: ambiguous {} vs brute force {ambiguous}",
-            stats.ambiguous
-        );
+        let (stats, _) = solid_against_brute_force(name, &d, dims);
         // Not vacuous: the gradient decided centres.
         assert!(stats.gradient_centres > 1000, "{name}: {stats:?}");
     }
@@ -404,16 +403,7 @@ fn centres_decided_by_taylor_expansions_match_brute_force() {
             let c = f.iter().map(|&i| m.vertices[i as usize]).sum::<DVec3>() / 3.0;
             (c.z - 32.0) / 29.3 < cut
         });
-        let (tris, fixed) = quantized(&d);
-        let (g, stats) =
-            solid_interior(&tris, &[], dims, InsideTest::Winding, &BrickGrid::new()).unwrap();
-        let ambiguous = assert_matches_winding(name, &g, &fixed, dims);
-        let slack = ambiguous / 5 + 10;
-        assert!(
-            stats.ambiguous.abs_diff(ambiguous) <= slack,
-            "{name}: ambiguous {} vs brute force {ambiguous}",
-            stats.ambiguous
-        );
+        let (stats, ambiguous) = solid_against_brute_force(name, &d, dims);
         // Not vacuous: the expansions decided centres, ambiguous ones too.
         assert!(stats.taylor_centres > 5000, "{name}: {stats:?}");
         assert!(ambiguous > 1000, "{name}: {ambiguous}");
