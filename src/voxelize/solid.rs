@@ -375,8 +375,8 @@ pub struct SolidStats {
     pub gradient_centres: u64,
     /// Centres of refined bricks decided from a second-order Taylor
     /// expansion of the mesh's own winding number about one centre of
-    /// their 8³ brick or 4³ box ([`Classifier::centres_by_taylor`]),
-    /// without far or near field of their own.
+    /// their 4³ box ([`Classifier::centres_by_taylor`]), without far or
+    /// near field of their own.
     pub taylor_centres: u64,
     /// Wall time (µs) finding the boundary and the caps over it, with the
     /// rim's tree built beside the serial cycle search.
@@ -451,7 +451,8 @@ const LARGE_CAP_AREA: f64 = 64.0;
 
 /// Rims of up to this many segments let refined bricks try
 /// [`Classifier::centres_by_taylor`] (with large caps): its gradient sums
-/// every segment directly, ~15 ns each, once per 8³ brick or 4³ box.
+/// every segment directly, at the eight boxes' expansion points of a brick
+/// at once.
 const TAYLOR_RIM_SEGMENTS: usize = 4096;
 
 /// A 4³ box whose Taylor remainder bound `½ H r²` (`H` the rim's bound of
@@ -1167,7 +1168,8 @@ impl Classifier<'_> {
                 let d = v.as_dvec3() - c;
                 let r2 = d.length_squared();
                 let w = w0 + gradient.dot(d);
-                // `|d| ≤ √12`: the gradient's rounding needs no root per centre.
+                // `|d| ≤ √12 < 3.47`: the gradient's rounding needs no root
+                // per centre.
                 let error = e0 + 3.47 * gradient_error + 0.5 * hessian * r2;
                 if (w - 0.5).abs() > error {
                     out.set(i, w);
@@ -1202,9 +1204,10 @@ struct MeshBins {
 
 impl MeshBins {
     /// The lists for bricks `keys` (in `(z, y, x)` order) over `triangles`;
-    /// `None` when the keys' bounding box holds more than [`MESH_BINS_BITS`]
-    /// bricks (or there are none). A triangle spanning more bricks than there are keys is matched
-    /// against every key instead of looking up the bricks it spans.
+    /// `None` when the keys' bounding box holds more than
+    /// [`MESH_BINS_BITS`] bricks (or there are none). A triangle spanning
+    /// more bricks than there are keys is matched against every key instead
+    /// of looking up the bricks it spans.
     fn new(triangles: &[SurfaceTriangle], keys: Vec<Voxel>) -> Option<Self> {
         let order = |k: &Voxel| (k.z, k.y, k.x);
         let brick = 8 * VOXEL_ONE;
