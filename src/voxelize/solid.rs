@@ -652,7 +652,7 @@ pub fn solid_interior_in(
                 // built beside the octree rather than by the first refined
                 // brick while the other threads wait for it.
                 let (mut rules, _) = rayon::join(
-                    || ctx.region_rules(Voxel::ZERO, top_size(dims)),
+                    || ctx.region_rules(Voxel::ZERO, top_size(dims), None),
                     || surface.brick(Voxel::ZERO).is_some(),
                 );
                 rules.sort_unstable_by_key(|(k, _)| (k.z, k.y, k.x));
@@ -866,8 +866,15 @@ impl Classifier<'_> {
 
     /// Rules for the bricks of the cube `[lo, lo + size)` (size a power of
     /// two, at least 8): nothing where the default holds, `Uniform` where
-    /// the caps' bound decides, `Refine` for the rest.
-    fn region_rules(&self, lo: Voxel, size: i32) -> Vec<(Voxel, BrickRule)> {
+    /// the caps' bound decides, `Refine` for the rest. `bound`: the cube's
+    /// bound of the caps' winding number when its parent found it
+    /// ([`Classifier::child_bounds`]), else it is found here.
+    fn region_rules(
+        &self,
+        lo: Voxel,
+        size: i32,
+        bound: Option<Option<Estimate>>,
+    ) -> Vec<(Voxel, BrickRule)> {
         let Some((blo, bhi)) = centre_box(lo, size, self.dims) else {
             return Vec::new();
         };
@@ -876,7 +883,7 @@ impl Classifier<'_> {
         {
             return Vec::new();
         }
-        match self.caps_bound(blo, bhi) {
+        match bound.unwrap_or_else(|| self.caps_bound(blo, bhi)) {
             Some(e) if decided(e) => {
                 if e.value.abs() < 0.5 - AMBIGUITY_BAND {
                     return Vec::new();
@@ -901,20 +908,70 @@ impl Classifier<'_> {
             _ => {}
         }
         let half = size / 2;
-        let children: Vec<Voxel> = (0..8)
-            .map(|c| lo + Voxel::new(c & 1, (c >> 1) & 1, c >> 2) * half)
+        let bounds = self.child_bounds(lo, half, (blo, bhi));
+        let children: Vec<(Voxel, Option<Estimate>)> = (0..8)
+            .map(|c| (lo + cube_offset(c) * (half / 2), bounds[c]))
             .collect();
         if size >= 64 {
             children
                 .into_par_iter()
-                .flat_map_iter(|c| self.region_rules(c, half))
+                .flat_map_iter(|(c, b)| self.region_rules(c, half, Some(b)))
                 .collect()
         } else {
             children
                 .into_iter()
-                .flat_map(|c| self.region_rules(c, half))
+                .flat_map(|(c, b)| self.region_rules(c, half, Some(b)))
                 .collect()
         }
+    }
+
+    /// [`Classifier::caps_bound`] for the eight children (side `half`) of
+    /// the cube at `lo` whose centres span `[blo, bhi]`, in one pass: the
+    /// caps' far field over the parent as a local expansion, its near
+    /// leaves summed at the eight children's centres in lanes, and each
+    /// child's variation bounded by its half-diagonal times the rim's
+    /// gradient bound over it. A child that a cap meets, or whose centre
+    /// may lie in a cap's plane, gets `None`, as do children outside the
+    /// grid.
+    fn child_bounds(
+        &self,
+        lo: Voxel,
+        half: i32,
+        (blo, bhi): (DVec3, DVec3),
+    ) -> [Option<Estimate>; 8] {
+        let mut boxes = [None; 8];
+        let mut q = [(blo + bhi) * 0.5; LANES];
+        for (c, (b, qc)) in boxes.iter_mut().zip(&mut q).enumerate() {
+            let Some((clo, chi)) = centre_box(lo + cube_offset(c) * (half / 2), half, self.dims)
+            else {
+                continue;
+            };
+            self.boxes.fetch_add(1, Ordering::Relaxed);
+            if !self.caps.meets_box(clo, chi) {
+                *qc = (clo + chi) * 0.5;
+                *b = Some((clo, chi));
+            }
+        }
+        if boxes.iter().all(Option::is_none) {
+            return [None; 8];
+        }
+        let far = self.caps.far_field(blo, bhi, BETAS[0]);
+        let sums = self.caps.near_lanes(&far.near, &q);
+        std::array::from_fn(|c| {
+            let (clo, chi) = boxes[c]?;
+            if sums.flat[c] {
+                return None;
+            }
+            let rho = (chi - clo).length() * 0.5;
+            let mut error = far.local.error + sums.error[c] + ROUNDING_SLACK;
+            if rho > 0.0 {
+                error += rho * self.caps.gradient_bound(clo, chi);
+            }
+            Some(Estimate {
+                value: far.local.eval(q[c]) + sums.sum[c],
+                error,
+            })
+        })
     }
 }
 

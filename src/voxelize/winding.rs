@@ -1555,6 +1555,47 @@ mod tests {
         assert!(ratio > 0.01, "{ratio}");
     }
 
+    /// The rim's field compiled for AVX2 gives the portable form's bits
+    /// (no fused steps), so a verdict cannot depend on the CPU: random
+    /// segments, points near them and far, on the cut (`u·v ≈ −|u||v|`).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn rim_field_avx2_matches_the_portable_bits() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let mut rng = rand::rngs::StdRng::seed_from_u64(71);
+        let mut coord = |s: f64| rng.random_range(-s..s);
+        for trial in 0..200 {
+            let scale = [1.0, 50.0, 4096.0][trial % 3];
+            let segments: Vec<[DVec3; 2]> = (0..1 + trial % 37)
+                .map(|_| {
+                    let a = DVec3::new(coord(scale), coord(scale), coord(scale));
+                    [a, a + DVec3::new(coord(4.0), coord(4.0), coord(4.0))]
+                })
+                .collect();
+            let mut q: [DVec3; LANES] = std::array::from_fn(|_| {
+                DVec3::new(coord(scale), coord(scale), coord(scale)).round()
+            });
+            // A lane on a segment's interior: the cut.
+            let [a, b] = segments[0];
+            q[trial % LANES] = (a + b) * 0.5;
+            let qs: [[f64; LANES]; 3] = [0, 1, 2].map(|k| q.map(|p| p[k]));
+            let portable = rim_field(&segments, &qs);
+            // SAFETY: AVX2 was detected above.
+            let wide = unsafe { rim_field_avx2(&segments, &qs) };
+            for k in 0..3 {
+                for i in 0..LANES {
+                    assert_eq!(portable.0[k][i].to_bits(), wide.0[k][i].to_bits(), "{trial}");
+                }
+            }
+            for i in 0..LANES {
+                assert_eq!(portable.1[i].to_bits(), wide.1[i].to_bits(), "{trial}");
+            }
+            assert_eq!(portable.2, wide.2, "{trial}");
+        }
+    }
+
     /// Re-expanding a local expansion about another centre changes nothing
     /// but rounding, and the `f32` lanes sum the near field within their
     /// stated bound of the exact sum.
