@@ -908,19 +908,28 @@ impl Classifier<'_> {
             _ => {}
         }
         let half = size / 2;
-        let bounds = self.child_bounds(lo, half, (blo, bhi));
-        let children: Vec<(Voxel, Option<Estimate>)> = (0..8)
+        // Large caps (a scan's few wide holes): the children in one pass
+        // from their parent's far field. Small ones (holes everywhere) walk
+        // the tree per child: with thousands of small caps a box's near list
+        // holds many leaves, and summing them in lanes cost more than eight
+        // walks from the children's centres (the regions phase of the bunny
+        // with 20% removed at 128: 55–60 ms against 31–47).
+        let bounds = self
+            .large_caps
+            .then(|| self.child_bounds(lo, half, (blo, bhi)))
+            .map_or([None; 8], |b| b.map(Some));
+        let children: Vec<(Voxel, Option<Option<Estimate>>)> = (0..8)
             .map(|c| (lo + cube_offset(c) * (half / 2), bounds[c]))
             .collect();
         if size >= 64 {
             children
                 .into_par_iter()
-                .flat_map_iter(|(c, b)| self.region_rules(c, half, Some(b)))
+                .flat_map_iter(|(c, b)| self.region_rules(c, half, b))
                 .collect()
         } else {
             children
                 .into_iter()
-                .flat_map(|(c, b)| self.region_rules(c, half, Some(b)))
+                .flat_map(|(c, b)| self.region_rules(c, half, b))
                 .collect()
         }
     }
