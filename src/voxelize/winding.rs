@@ -1586,7 +1586,11 @@ mod tests {
             let wide = unsafe { rim_field_avx2(&segments, &qs) };
             for k in 0..3 {
                 for i in 0..LANES {
-                    assert_eq!(portable.0[k][i].to_bits(), wide.0[k][i].to_bits(), "{trial}");
+                    assert_eq!(
+                        portable.0[k][i].to_bits(),
+                        wide.0[k][i].to_bits(),
+                        "{trial}"
+                    );
                 }
             }
             for i in 0..LANES {
