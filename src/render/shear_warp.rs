@@ -655,7 +655,7 @@ struct Tuning {
 }
 
 /// The bytes shear-warp holds beside the volume and the image: the
-/// intermediate image, the per-slice column tables (and brick starts) and
+/// intermediate image (and its copy for the warp), the per-slice column tables (and brick starts) and
 /// each thread's rows, column floors and slab.
 fn working_bytes(f: &Factor, composite: bool, threads: usize, slab_cap: usize) -> u128 {
     let (w, h, n) = (f.w as u128, f.h as u128, f.n as u128);
@@ -666,7 +666,10 @@ fn working_bytes(f: &Factor, composite: bool, threads: usize, slab_cap: usize) -
     let slab = (slab_cap as u128).min(8 * f.dims[f.b] as u128 * row);
     let per_thread = 4 * (3 * w + 2 * row + slab);
     let starts = 4 * (row / 8 + 2);
-    w * h * per_pixel + n * (w * 8 + starts) + threads as u128 * per_thread
+    // The warp's source: channels and coverage, and the hit slice.
+    let pad = 2 * PAD as u128;
+    let source = (w + pad) * (h + pad) * if composite { 22 } else { 10 };
+    w * h * per_pixel + source + n * (w * 8 + starts) + threads as u128 * per_thread
 }
 
 /// [`render`] as `tuning` says.
@@ -1513,15 +1516,61 @@ fn warp(
 ) -> (RenderImage, u64) {
     let (w, h) = (opts.width, opts.height);
     let mut img = RenderImage::blank(w, h, f32::INFINITY);
+    let hits = match image {
+        Intermediate::Mip(bands) => {
+            let source = mip_source(bands, (f.w, f.h), vopts.window.0);
+            warp_bands(tuning, setup, f, &source, vopts, &mut img)
+        }
+        Intermediate::Composite(bands) => {
+            let source = composite_source(bands, (f.w, f.h));
+            warp_bands(tuning, setup, f, &source, vopts, &mut img)
+        }
+    };
+    (img, hits)
+}
+
+/// A MIP's warp source: `[m, cov]`, the pixel covered where it holds a
+/// sample (`m > −∞`), and a hit where its maximum exceeds `low` (the
+/// window's low end).
+fn mip_source(bands: &[MipBand], dims: (usize, usize), low: f32) -> WarpSource<2> {
+    WarpSource::of(dims, |bd, r, i| {
+        let (b, o) = (&bands[bd], r * dims.0 + i);
+        let (m, q) = (b.m[o], b.q[o]);
+        let covered = m > f32::NEG_INFINITY;
+        let hit = if m > low { q } else { u16::MAX };
+        ([if covered { m } else { 0.0 }, f32::from(covered)], hit)
+    })
+}
+
+/// A composite's warp source: `[r, g, b, a, cov]`, the pixel covered
+/// where its ray crosses the volume, and a hit at its first slice with
+/// `α > 0`.
+fn composite_source(bands: &[CompositeBand], dims: (usize, usize)) -> WarpSource<5> {
+    WarpSource::of(dims, |bd, r, i| {
+        let (b, o) = (&bands[bd], r * dims.0 + i);
+        let seen = b.seen[o];
+        let ch = |k: usize| if seen { b.rgba[k][o] } else { 0.0 };
+        ([ch(0), ch(1), ch(2), ch(3), f32::from(seen)], b.q[o])
+    })
+}
+
+/// The warp of every band of `img` from `source`: returns the hits.
+fn warp_bands<const N: usize>(
+    tuning: Tuning,
+    setup: &RaySetup,
+    f: &Factor,
+    source: &WarpSource<N>,
+    vopts: &VolumeOptions,
+    img: &mut RenderImage,
+) -> u64 {
     let job = Warp {
         setup,
         f,
-        image,
+        source,
         vopts,
-        w,
+        w: img.width,
     };
-    let hits = img
-        .par_bands(WARP_ROWS)
+    img.par_bands(WARP_ROWS)
         .map(|(band, pixels)| {
             #[cfg(target_arch = "x86_64")]
             if tuning.avx2 {
@@ -1531,18 +1580,117 @@ fn warp(
             }
             warp_band(&job, band, pixels)
         })
-        .sum();
-    (img, hits)
+        .sum()
 }
 
 /// Image rows per parallel task of the warp.
 const WARP_ROWS: usize = 16;
 
+/// Uncovered pixels around [`WarpSource`]'s image: enough that every
+/// corner of a crossing clamped to `-PAD..=w` (and `-PAD..=h`) is in the
+/// array and a corner outside the image reads an uncovered pixel.
+const PAD: usize = 2;
+
+/// The intermediate image as the warp reads it: one row-major array with
+/// [`PAD`] uncovered pixels on every side (the bands' rows joined), each
+/// pixel's `N − 1` channels beside one another (MIP: the maximum;
+/// compositing: premultiplied colour and opacity), zero where the pixel
+/// is not covered, then its coverage (1 or 0), and the slice of its hit
+/// (`u16::MAX` for none). Products with a zero weight or a zero channel
+/// add `+0.0`, which leaves every sum as the covered corners alone make
+/// it (a sum that starts at `+0.0` never holds `−0.0`), so the warp's
+/// pixels are those of the corner-by-corner tests it replaces.
+struct WarpSource<const N: usize> {
+    stride: usize,
+    w: i64,
+    h: i64,
+    /// Channels and coverage: `[m, cov]` (MIP) or `[r, g, b, a, cov]`.
+    px: Vec<[f32; N]>,
+    q: Vec<u16>,
+}
+
+impl<const N: usize> WarpSource<N> {
+    /// The source of a `w × h` intermediate image in bands of [`BAND`]
+    /// rows, whose pixel `i` of row `r` of band `bd` is `pixel(bd, r, i)`.
+    fn of(
+        (w, h): (usize, usize),
+        pixel: impl Fn(usize, usize, usize) -> ([f32; N], u16) + Sync,
+    ) -> Self {
+        let stride = w + 2 * PAD;
+        let len = stride * (h + 2 * PAD);
+        let (mut px, mut q) = (vec![[0f32; N]; len], vec![u16::MAX; len]);
+        let rows = px[PAD * stride..]
+            .par_chunks_mut(stride * BAND)
+            .zip(q[PAD * stride..].par_chunks_mut(stride * BAND))
+            .take(h.div_ceil(BAND))
+            .enumerate();
+        rows.for_each(|(bd, (px, qs))| {
+            let pixels = px
+                .chunks_mut(stride)
+                .zip(qs.chunks_mut(stride))
+                .take(BAND.min(h - bd * BAND));
+            for (r, (px, qs)) in pixels.enumerate() {
+                let (px, qs) = (&mut px[PAD..PAD + w], &mut qs[PAD..PAD + w]);
+                for (i, (p, q)) in px.iter_mut().zip(qs).enumerate() {
+                    (*p, *q) = pixel(bd, r, i);
+                }
+            }
+        });
+        WarpSource {
+            stride,
+            w: w as i64,
+            h: h as i64,
+            px,
+            q,
+        }
+    }
+
+    /// The array index of pixel `(i, j)`, which must lie within the border.
+    #[inline(always)]
+    fn index(&self, i: i64, j: i64) -> usize {
+        (j + PAD as i64) as usize * self.stride + (i + PAD as i64) as usize
+    }
+
+    /// At crossing `(fi, fj)` (intermediate pixel units): the sums over
+    /// the four pixels around it of bilinear weight × channel and of the
+    /// weights of the covered ones (last), and the hit slice of the
+    /// nearest pixel (`u16::MAX` for none or outside).
+    #[inline(always)]
+    fn sample(&self, fi: f64, fj: f64) -> ([f32; N], u16) {
+        let (i0, j0) = (fi.floor(), fj.floor());
+        let (wi, wj) = ((fi - i0) as f32, (fj - j0) as f32);
+        // A corner beyond the border reads the border: uncovered either way.
+        let pad = PAD as i64;
+        let (i0, j0) = (
+            (i0 as i64).clamp(-pad, self.w),
+            (j0 as i64).clamp(-pad, self.h),
+        );
+        let base = self.index(i0, j0);
+        let corners = [
+            (base, (1.0 - wi) * (1.0 - wj)),
+            (base + 1, wi * (1.0 - wj)),
+            (base + self.stride, (1.0 - wi) * wj),
+            (base + self.stride + 1, wi * wj),
+        ];
+        let mut acc = [0f32; N];
+        for (o, wt) in corners {
+            for (a, &v) in acc.iter_mut().zip(&self.px[o]) {
+                *a += wt * v;
+            }
+        }
+        let (ni, nj) = (
+            (fi.round() as i64).clamp(-1, self.w),
+            (fj.round() as i64).clamp(-1, self.h),
+        );
+        (acc, self.q[self.index(ni, nj)])
+    }
+}
+
 /// What the warp of every band reads.
-struct Warp<'a> {
+struct Warp<'a, const N: usize> {
     setup: &'a RaySetup,
     f: &'a Factor,
-    image: &'a Intermediate<'a>,
+    source: &'a WarpSource<N>,
     vopts: &'a VolumeOptions,
     w: u32,
 }
@@ -1552,7 +1700,7 @@ struct Warp<'a> {
 /// baseline target needs: a fifth of the warp's time), so the same pixels.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn warp_band_avx2(job: &Warp, band: usize, pixels: ImageBand) -> u64 {
+fn warp_band_avx2<const N: usize>(job: &Warp<N>, band: usize, pixels: ImageBand) -> u64 {
     warp_band(job, band, pixels)
 }
 
@@ -1573,7 +1721,7 @@ fn hit_at(f: &Factor, ray: &GridRay, q: u16) -> (f32, Option<IVec3>) {
 
 /// The warp of the image's rows `band·WARP_ROWS..`: returns the hits.
 #[inline(always)]
-fn warp_band(job: &Warp, band: usize, (color, depth, hit): ImageBand) -> u64 {
+fn warp_band<const N: usize>(job: &Warp<N>, band: usize, (color, depth, hit): ImageBand) -> u64 {
     let Warp { setup, f, w, .. } = *job;
     let w = w as usize;
     let (lo, hi) = setup.clip_box();
@@ -1591,12 +1739,14 @@ fn warp_band(job: &Warp, band: usize, (color, depth, hit): ImageBand) -> u64 {
         // the box and the base plane, and where it meets the plane.
         let [o, d] = [&rays.o, &rays.d].map(|v| v.each_ref().map(|v| &v[..w]));
         let (meets, fis, fjs) = (&mut meets[..w], &mut fis[..w], &mut fjs[..w]);
+        let (oc, dc, oa, da, ob, db) = (o[f.c], d[f.c], o[f.a], d[f.a], o[f.b], d[f.b]);
+        let front = f.front as f64;
         for x in 0..w {
             let (oo, dd) = ([o[0][x], o[1][x], o[2][x]], [d[0][x], d[1][x], d[2][x]]);
-            meets[x] = clip_hits(oo, dd, lo, hi) & (d[f.c][x] != 0.0);
-            let t = (f.front as f64 - o[f.c][x]) / d[f.c][x];
-            fis[x] = o[f.a][x] + d[f.a][x] * t - f.u0;
-            fjs[x] = o[f.b][x] + d[f.b][x] * t - f.v0;
+            meets[x] = clip_hits(oo, dd, lo, hi) & (dc[x] != 0.0);
+            let t = (front - oc[x]) / dc[x];
+            fis[x] = oa[x] + da[x] * t - f.u0;
+            fjs[x] = ob[x] + db[x] * t - f.v0;
         }
         hits += warp_row(job, &rays, (fis, fjs, meets), (color, depth, hit));
     }
@@ -1605,91 +1755,53 @@ fn warp_band(job: &Warp, band: usize, (color, depth, hit): ImageBand) -> u64 {
 
 /// The pixels of one image row from its rays' crossings `(fi, fj)` of
 /// the base plane (intermediate pixel units), for the rays that `meet`
-/// the box and the plane; returns the hits.
+/// the box and the plane; returns the hits. Each pixel is the bilinear
+/// blend of the covered corners among the four around its crossing,
+/// their weights rescaled (the volume's silhouette is not darkened by
+/// the pixels beyond it), and its hit the slice of the nearest pixel's.
 #[inline(always)]
-fn warp_row(
-    job: &Warp,
+fn warp_row<const N: usize>(
+    job: &Warp<N>,
     rays: &RowRays,
     (fis, fjs, meets): (&[f64], &[f64], &[bool]),
     (color, depth, hit): ImageBand,
 ) -> u64 {
     let Warp {
-        f, image, vopts, ..
+        f, source, vopts, ..
     } = *job;
     let mut hits = 0u64;
     for (x, ((c, d), hv)) in color.iter_mut().zip(depth).zip(hit).enumerate() {
         if !meets[x] {
             continue;
         }
-        let ray = rays.ray(x);
-        let (fi, fj) = (fis[x], fjs[x]);
-        let (i0, j0) = (fi.floor(), fj.floor());
-        let (wi, wj) = ((fi - i0) as f32, (fj - j0) as f32);
-        let (i0, j0) = (i0 as i64, j0 as i64);
-        let inside = |i: i64, j: i64| (0..f.w as i64).contains(&i) && (0..f.h as i64).contains(&j);
-        let at = |i: i64, j: i64| -> Option<(usize, usize)> {
-            inside(i, j).then(|| {
-                let (i, j) = (i as usize, j as usize);
-                (j / BAND, (j % BAND) * f.w + i)
-            })
-        };
-        let corners = [
-            (i0, j0, (1.0 - wi) * (1.0 - wj)),
-            (i0 + 1, j0, wi * (1.0 - wj)),
-            (i0, j0 + 1, (1.0 - wi) * wj),
-            (i0 + 1, j0 + 1, wi * wj),
-        ];
-        let nearest = at(fi.round() as i64, fj.round() as i64);
-        match image {
-            Intermediate::Mip(bands) => {
-                // The covered corners only, their weights rescaled:
-                // the volume's silhouette is not darkened by the
-                // pixels beyond it.
-                let (mut m, mut wsum) = (0f32, 0f32);
-                for &(i, j, wt) in &corners {
-                    if let Some((bd, o)) = at(i, j)
-                        && bands[bd].m[o] > f32::NEG_INFINITY
-                    {
-                        m += wt * bands[bd].m[o];
-                        wsum += wt;
-                    }
-                }
-                let m = if wsum > 0.0 { m / wsum } else { vopts.window.0 };
-                let g = grey(m, vopts.window);
-                *c = [g, g, g, 1.0];
-                if let Some((bd, o)) = nearest
-                    && bands[bd].m[o] > vopts.window.0
-                {
-                    (*d, *hv) = hit_at(f, &ray, bands[bd].q[o]);
-                    hits += 1;
-                }
+        let (acc, q) = source.sample(fis[x], fjs[x]);
+        let wsum = acc[N - 1];
+        if N == 2 {
+            let m = if wsum > 0.0 {
+                acc[0] / wsum
+            } else {
+                vopts.window.0
+            };
+            let g = grey(m, vopts.window);
+            *c = [g, g, g, 1.0];
+            if q != u16::MAX {
+                (*d, *hv) = hit_at(f, &rays.ray(x), q);
+                hits += 1;
             }
-            Intermediate::Composite(bands) => {
-                let (mut acc, mut wsum) = ([0f32; 4], 0f32);
-                for &(i, j, wt) in &corners {
-                    if let Some((bd, o)) = at(i, j)
-                        && bands[bd].seen[o]
-                    {
-                        for (x, ch) in acc.iter_mut().zip(&bands[bd].rgba) {
-                            *x += wt * ch[o];
-                        }
-                        wsum += wt;
-                    }
+        } else {
+            let acc = if wsum > 0.0 {
+                [0, 1, 2, 3].map(|k| acc[k] / wsum)
+            } else {
+                [0, 1, 2, 3].map(|k| acc[k])
+            };
+            let a = acc[3];
+            if a > 0.0 {
+                let rgb = [0, 1, 2].map(|k| (acc[k] / a).clamp(0.0, 1.0));
+                *c = [rgb[0], rgb[1], rgb[2], a.min(1.0)];
+                if q != u16::MAX {
+                    (*d, *hv) = hit_at(f, &rays.ray(x), q);
                 }
-                if wsum > 0.0 {
-                    acc = acc.map(|x| x / wsum);
-                }
-                let a = acc[3];
-                if a > 0.0 {
-                    let rgb = [0, 1, 2].map(|k| (acc[k] / a).clamp(0.0, 1.0));
-                    *c = [rgb[0], rgb[1], rgb[2], a.min(1.0)];
-                    if let Some((bd, o)) = nearest
-                        && bands[bd].q[o] != u16::MAX
-                    {
-                        (*d, *hv) = hit_at(f, &ray, bands[bd].q[o]);
-                    }
-                    hits += 1;
-                }
+                hits += 1;
             }
         }
     }
@@ -2049,6 +2161,139 @@ mod tests {
     /// to the scalar loop), up to the row's end, with weights and samples
     /// of every kind (0, −0, subnormal, huge).
     #[cfg(target_arch = "x86_64")]
+    /// The warp's source sums every corner (zero where uncovered) where
+    /// the warp used to test each corner and skip the uncovered ones: the
+    /// same sums, bit for bit (NaN as NaN), and the same nearest hit, on intermediate
+    /// images with uncovered pixels, `±0`, NaN and infinite samples, at
+    /// crossings inside, on the border, just outside and far outside.
+    #[test]
+    fn warp_sources_sum_the_covered_corners() {
+        let mut rng = StdRng::seed_from_u64(5);
+        let special = [
+            0.0,
+            -0.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1e-40,
+            -2.5,
+        ];
+        let (mut mixed, mut outside) = (0, 0);
+        for _ in 0..300 {
+            let (w, h) = (rng.random_range(1..40usize), rng.random_range(1..80usize));
+            let bands = h.div_ceil(BAND);
+            let rows = |bd: usize| BAND.min(h - bd * BAND);
+            let mut value = |rng: &mut StdRng| match rng.random_range(0..6) {
+                0 => special[rng.random_range(0..special.len())],
+                1 => f32::NEG_INFINITY,
+                _ => rng.random_range(-1.0..2.0),
+            };
+            let low = [f32::NEG_INFINITY, 0.0, 0.5][rng.random_range(0..3)];
+            let mip: Vec<MipBand> = (0..bands)
+                .map(|bd| MipBand {
+                    w,
+                    m: (0..w * rows(bd)).map(|_| value(&mut rng)).collect(),
+                    q: (0..w * rows(bd)).map(|_| rng.random_range(0..9)).collect(),
+                })
+                .collect();
+            let tf = TransferFunction::ramp((0.0, 1.0));
+            let table = TfTable::new(&tf, (0.0, 1.0));
+            let comp: Vec<CompositeBand> = (0..bands)
+                .map(|bd| {
+                    let n = w * rows(bd);
+                    CompositeBand {
+                        w,
+                        rgba: std::array::from_fn(|_| (0..n).map(|_| value(&mut rng)).collect()),
+                        q: (0..n)
+                            .map(|_| [u16::MAX, 3][rng.random_range(0..2)])
+                            .collect(),
+                        y: vec![1.0; n],
+                        seen: (0..n).map(|_| rng.random_range(0..3) > 0).collect(),
+                        done: vec![false; rows(bd) * w.div_ceil(CHUNK)],
+                        table: &table,
+                        avx2: false,
+                    }
+                })
+                .collect();
+            let (ms, cs) = (
+                mip_source(&mip, (w, h), low),
+                composite_source(&comp, (w, h)),
+            );
+            // The corners as the warp used to take them.
+            let at = |i: i64, j: i64| {
+                ((0..w as i64).contains(&i) && (0..h as i64).contains(&j)).then(|| {
+                    let (i, j) = (i as usize, j as usize);
+                    (j / BAND, (j % BAND) * w + i)
+                })
+            };
+            for _ in 0..200 {
+                let coord = |rng: &mut StdRng, n: usize| match rng.random_range(0..5) {
+                    0 => rng.random_range(-3..n as i64 + 3) as f64,
+                    1 => rng.random_range(-3..n as i64 + 3) as f64 + 0.5,
+                    2 => rng.random_range(-1e6..1e6),
+                    _ => rng.random_range(-2.5..n as f64 + 2.5),
+                };
+                let (fi, fj) = (coord(&mut rng, w), coord(&mut rng, h));
+                let (i0, j0) = (fi.floor(), fj.floor());
+                let (wi, wj) = ((fi - i0) as f32, (fj - j0) as f32);
+                let (i0, j0) = (i0 as i64, j0 as i64);
+                let corners = [
+                    (i0, j0, (1.0 - wi) * (1.0 - wj)),
+                    (i0 + 1, j0, wi * (1.0 - wj)),
+                    (i0, j0 + 1, (1.0 - wi) * wj),
+                    (i0 + 1, j0 + 1, wi * wj),
+                ];
+                let inside = corners.iter().filter(|c| at(c.0, c.1).is_some()).count();
+                mixed += usize::from(inside > 0 && inside < 4);
+                outside += usize::from(inside == 0);
+                let nearest = at(fi.round() as i64, fj.round() as i64);
+                let (mut m, mut mw) = (0f32, 0f32);
+                let (mut acc, mut cw) = ([0f32; 4], 0f32);
+                for &(i, j, wt) in &corners {
+                    if let Some((bd, o)) = at(i, j) {
+                        if mip[bd].m[o] > f32::NEG_INFINITY {
+                            m += wt * mip[bd].m[o];
+                            mw += wt;
+                        }
+                        if comp[bd].seen[o] {
+                            for (x, ch) in acc.iter_mut().zip(&comp[bd].rgba) {
+                                *x += wt * ch[o];
+                            }
+                            cw += wt;
+                        }
+                    }
+                }
+                let mip_hit = nearest
+                    .filter(|&(bd, o)| mip[bd].m[o] > low)
+                    .map_or(u16::MAX, |(bd, o)| mip[bd].q[o]);
+                let comp_hit = nearest.map_or(u16::MAX, |(bd, o)| comp[bd].q[o]);
+                // Bits, every NaN as one (Rust leaves a NaN's sign and
+                // payload to the code generator, which may swap an
+                // addition's operands).
+                let bits = |v: &[f32]| {
+                    v.iter()
+                        .map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() })
+                        .collect::<Vec<_>>()
+                };
+                let (got, q) = ms.sample(fi, fj);
+                assert_eq!(bits(&got), bits(&[m, mw]), "MIP at ({fi}, {fj}), {w}×{h}");
+                assert_eq!(q, mip_hit, "MIP hit at ({fi}, {fj})");
+                let (got, q) = cs.sample(fi, fj);
+                let want = [acc[0], acc[1], acc[2], acc[3], cw];
+                assert_eq!(
+                    bits(&got),
+                    bits(&want),
+                    "composite at ({fi}, {fj}), {w}×{h}"
+                );
+                assert_eq!(q, comp_hit, "composite hit at ({fi}, {fj})");
+            }
+        }
+        assert!(
+            mixed > 3_000 && outside > 3_000,
+            "{mixed} on the border, {outside} outside"
+        );
+    }
+
     #[test]
     fn permuted_resampling_is_the_scalar() {
         let avx512 = std::arch::is_x86_feature_detected!("avx512f");
@@ -2162,7 +2407,14 @@ mod tests {
                     ..cols
                 };
                 resample(&src, &gathered, 0..n, &mut slow, Gather::Scalar);
-                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                // Bits, every NaN as one (Rust leaves a NaN's sign and
+                // payload to the code generator, which may swap an
+                // addition's operands).
+                let bits = |v: &[f32]| {
+                    v.iter()
+                        .map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() })
+                        .collect::<Vec<_>>()
+                };
                 assert_eq!(bits(&fast), bits(&slow), "{cam:?} slice {q}");
                 #[cfg(target_arch = "x86_64")]
                 for (gather, feature) in [
