@@ -2183,7 +2183,7 @@ mod tests {
             let (w, h) = (rng.random_range(1..40usize), rng.random_range(1..80usize));
             let bands = h.div_ceil(BAND);
             let rows = |bd: usize| BAND.min(h - bd * BAND);
-            let mut value = |rng: &mut StdRng| match rng.random_range(0..6) {
+            let value = |rng: &mut StdRng| match rng.random_range(0..6) {
                 0 => special[rng.random_range(0..special.len())],
                 1 => f32::NEG_INFINITY,
                 _ => rng.random_range(-1.0..2.0),
