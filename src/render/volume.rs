@@ -284,12 +284,16 @@ pub enum VolumeMethod {
     /// One discrete ray per pixel of the frame's [`RayKind`]: exact (the
     /// [module docs](self) define every pixel).
     #[default]
+    #[value(help = "One exact discrete ray per pixel, of the --ray kind")]
     Rays,
     /// Shear-warp (object order, see [`super::shear_warp`]): every slice
     /// resampled once onto an intermediate image, then warped to the
     /// frame. Faster, not exact: its error against the 6-ray is measured.
     /// MIP and compositing; iso-surfaces and perspective eyes inside the
     /// volume's box cast rays.
+    #[value(
+        help = "Shear-warp (object order): every slice resampled once onto an intermediate image, then warped to the frame. Faster, not exact (--measure gives its difference from the 6-ray image). MIP and compositing; iso-surfaces and perspective eyes inside the volume's box cast rays"
+    )]
     ShearWarp,
 }
 
