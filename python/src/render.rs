@@ -513,7 +513,7 @@ pub fn render_volume<'py>(
         vopts.mode = match mode {
             None => VolumeMode::Mip,
             Some(VolumeMode::Iso(_)) => {
-                let level = iso.unwrap_or((vopts.window.0 + vopts.window.1) * 0.5);
+                let level = iso.unwrap_or(vopts.middle_of_window());
                 if !level.is_finite() {
                     return Err(VoxkitError::invalid("iso must be a finite value"));
                 }

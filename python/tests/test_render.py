@@ -63,6 +63,19 @@ def test_read_volume_and_render_it():
     )
 
 
+@pytest.mark.parametrize(
+    "value",
+    [np.uint32(2**32 - 1), np.int32(-(2**31)), np.float32(3.4e38), np.float64(-1e300)],
+)
+def test_uniform_volumes_of_any_magnitude_render(value):
+    """A uniform volume gets a proper default window and iso value even
+    where `v ± 0.5` rounds back to `v` (a uint32 mask of 2**32 - 1)."""
+    arr = np.full((5, 4, 3), value)
+    for volume, method in [("mip", "rays"), ("composite", "shear-warp"), ("iso", "rays")]:
+        rgb, depth = voxkit.render(arr, size=(12, 10), volume=volume, method=method)
+        assert rgb.shape == (10, 12, 3)
+
+
 def test_nifti_reads_as_its_metaimage():
     """A gzipped NIfTI-1 written by nibabel holds the MR volume of the .mhd."""
     mhd = voxkit.read_volume(ROOT / "data" / "volumes" / "HeadMRVolume" / "HeadMRVolume.mhd")

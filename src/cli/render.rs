@@ -772,7 +772,7 @@ pub(crate) fn volume_options(
         VolumeArg::Mip => VolumeMode::Mip,
         VolumeArg::Composite => VolumeMode::Composite,
         VolumeArg::Iso => {
-            let level = args.iso.unwrap_or((v.window.0 + v.window.1) * 0.5);
+            let level = args.iso.unwrap_or(v.middle_of_window());
             if !level.is_finite() {
                 return Err(CliError::bad_input("--iso must be a finite value"));
             }

@@ -537,7 +537,10 @@ impl VolumeOptions {
     }
 
     /// The 1% and 99.5% percentiles of the finite samples; if they are
-    /// equal (`v`), `(v − ½, v + ½)`; without finite samples `(0, 1)`.
+    /// equal in `f32` (`v`), `(v − d, v + d)` with `d = ½`, or four units
+    /// in the last place of `v` where `½` is less (`|v| ≥ 2²⁰`: a
+    /// uniform `u32` mask of `2³² − 1`), kept finite at `±f32::MAX`;
+    /// without finite samples `(0, 1)`.
     ///
     /// ```
     /// use voxkit::grid::{ScalarVolume, VolumeData, VolumeFrame};
@@ -549,6 +552,21 @@ impl VolumeOptions {
     pub fn default_window(volume: &ScalarVolume) -> (f32, f32) {
         let p = volume.percentiles(&DEFAULT_WINDOW_PERCENTILES);
         window_of_percentiles(p[0], p[1])
+    }
+
+    /// The iso value `--volume iso` takes by default: the middle of the
+    /// window, `(lo + hi) / 2` rounded once, and finite for every finite
+    /// window (the halves are summed, so ends near `±f32::MAX` do not
+    /// overflow).
+    ///
+    /// ```
+    /// use voxkit::render::{VolumeMode, VolumeOptions};
+    /// let o = VolumeOptions::with_window(VolumeMode::Mip, (f32::MAX / 2.0, f32::MAX));
+    /// assert_eq!(o.middle_of_window(), 0.75 * f32::MAX);
+    /// ```
+    pub fn middle_of_window(&self) -> f32 {
+        let (lo, hi) = self.window;
+        lo * 0.5 + hi * 0.5
     }
 
     fn validate(&self) -> Result<()> {
@@ -579,7 +597,14 @@ fn window_of_percentiles(lo: f64, hi: f64) -> (f32, f32) {
     } else if lo < hi {
         (lo, hi)
     } else {
-        (lo - 0.5, lo + 0.5)
+        // Half a unit, or four ulps where half a unit would round away
+        // (`lo ± ½ == lo` from 2²³ on).
+        let d = (lo.abs() * (4.0 * f32::EPSILON)).max(0.5);
+        let (below, above) = (lo - d, lo + d);
+        (
+            if below.is_finite() { below } else { lo },
+            if above.is_finite() { above } else { lo },
+        )
     }
 }
 
@@ -1601,6 +1626,36 @@ pub fn render_volume(
 
 #[cfg(test)]
 mod tests {
+    /// A uniform volume's window holds its value strictly inside, finite,
+    /// at every magnitude (a `u32` mask of `2³² − 1` and `±f32::MAX`
+    /// included), and is `v ± ½` where that is exact; the default iso
+    /// value is finite and inside it.
+    #[test]
+    fn uniform_windows_are_proper_at_every_magnitude() {
+        let mut values = vec![0.0, -0.0, 7.0, -3.25, 1e6, 1048575.0, f64::from(u32::MAX)];
+        values.extend([i32::MIN, i32::MAX].map(f64::from));
+        values.extend([f32::MAX, -f32::MAX, f32::MIN_POSITIVE, 1e-42, 3e38].map(f64::from));
+        values.extend((0..60).map(|e| 1.7f64.powi(e)));
+        values.extend((0..60).map(|e| -(2f64.powi(e) + 1.0)));
+        for v in values {
+            let (lo, hi) = window_of_percentiles(v, v);
+            let x = v as f32;
+            assert!(lo.is_finite() && hi.is_finite(), "{v}: {lo}, {hi}");
+            assert!(lo < hi && lo <= x && x <= hi, "{v}: {lo}, {hi}");
+            assert!(lo < x || hi > x, "{v}");
+            if x.abs() < 1048576.0 {
+                assert_eq!((lo, hi), (x - 0.5, x + 0.5), "{v}");
+            }
+            let o = VolumeOptions::with_window(VolumeMode::Mip, (lo, hi));
+            let m = o.middle_of_window();
+            assert!(m.is_finite() && lo <= m && m <= hi, "{v}: {m}");
+        }
+        let wide = VolumeOptions::with_window(VolumeMode::Mip, (-f32::MAX, f32::MAX));
+        assert_eq!(wide.middle_of_window(), 0.0);
+        let o = VolumeOptions::with_window(VolumeMode::Mip, (0.2, 0.9));
+        assert_eq!(o.middle_of_window(), (0.2f32 + 0.9) * 0.5);
+    }
+
     use super::*;
     use crate::grid::{VolumeData, VolumeFrame};
 

@@ -283,6 +283,62 @@ fn volumes_from_detached_headers() {
     std::fs::remove_dir_all(&d).unwrap();
 }
 
+/// Uniform volumes at every magnitude render with the default window and
+/// iso value, by rays and by shear-warp: a `u32` mask of `2³² − 1`, an
+/// `i32` of its minimum and a `float` of `f32::MAX`, where `v ± ½` rounds
+/// back to `v` (found by a sweep of odd volumes: the default window was
+/// empty and the render refused a window the user never gave).
+#[test]
+fn uniform_volumes_of_any_magnitude_render() {
+    let d = tmp("uniform");
+    let volumes: [(&str, [u8; 4]); 4] = [
+        ("uint", u32::MAX.to_le_bytes()),
+        ("int", i32::MIN.to_le_bytes()),
+        ("float", f32::MAX.to_le_bytes()),
+        ("float", (-3e38f32).to_le_bytes()),
+    ];
+    for (n, (ty, v)) in volumes.iter().enumerate() {
+        let raw = v.repeat(5 * 4 * 3);
+        std::fs::write(d.join(format!("u{n}.raw")), &raw).unwrap();
+        let header = d.join(format!("u{n}.nhdr"));
+        std::fs::write(
+            &header,
+            format!(
+                "NRRD0004\ntype: {ty}\ndimension: 3\nsizes: 5 4 3\nendian: little\n\
+                 encoding: raw\ndata file: u{n}.raw\n\n"
+            ),
+        )
+        .unwrap();
+        for (mode, method) in [
+            ("mip", "rays"),
+            ("mip", "shear-warp"),
+            ("composite", "shear-warp"),
+            ("iso", "rays"),
+        ] {
+            let png = d.join(format!("u{n}-{mode}-{method}.png"));
+            let args = [
+                "render",
+                s(&header),
+                "-o",
+                s(&png),
+                "--volume",
+                mode,
+                "--method",
+                method,
+                "--size",
+                "24x20",
+                "--json",
+            ];
+            let j = json(&voxkit(&args));
+            assert_eq!(j["rays"].as_u64(), Some(24 * 20), "{ty} {mode} {j}");
+            let [lo, hi] = [0, 1].map(|k| j["window"][k].as_f64().unwrap());
+            assert!(lo < hi && lo.is_finite() && hi.is_finite(), "{ty} {j}");
+            assert!(png.exists());
+        }
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
 /// `--reps` on a volume times the memory floor beside the frames: `floor_ms`
 /// and `frame_over_floor` (the frame's median over the floor's); a single
 /// render and a voxel grid have neither.
