@@ -374,10 +374,13 @@ impl VolumeFrame {
     /// that are not singular or nearly so (see [`VolumeFrame::MIN_CONDITION`]).
     pub fn validate(&self) -> Result<()> {
         let cols = [self.axes.x_axis, self.axes.y_axis, self.axes.z_axis];
+        // The columns as a user wrote them (glam's `Display`), not `Debug`.
+        let shown = || cols.map(|c| c.to_string()).join(", ");
         if !self.origin.is_finite() || cols.iter().any(|c| !c.is_finite()) {
             return Err(VoxkitError::invalid(format!(
-                "volume frame is not finite: origin {}, axes {:?}",
-                self.origin, cols
+                "volume frame is not finite: origin {}, axes {}",
+                self.origin,
+                shown()
             )));
         }
         let norms: f64 = cols.iter().map(|c| c.length()).product();
@@ -386,8 +389,9 @@ impl VolumeFrame {
         let well_conditioned = ratio >= Self::MIN_CONDITION; // false for NaN
         if !well_conditioned || !self.axes.inverse().is_finite() {
             return Err(VoxkitError::invalid(format!(
-                "volume axes {cols:?} are singular or nearly so (|det| / product of \
-                 column lengths = {ratio:e})"
+                "volume axes {} are singular or nearly so (|det| / product of \
+                 column lengths = {ratio:e})",
+                shown()
             )));
         }
         Ok(())

@@ -104,9 +104,9 @@ impl RayKind {
 pub enum NormalMode {
     /// The face of the hit voxel the ray enters through.
     Face,
-    /// A plane fitted to the surface voxels within 3 of the hit (Gaussian
-    /// weights; see the `normal` module): smooth on curved surfaces, without
-    /// the moiré of a 3×3×3 gradient.
+    /// A plane fitted to the surface voxels within 3 of the hit, with
+    /// Gaussian weights: smooth on curved surfaces, without the moiré of a
+    /// 3×3×3 gradient.
     Smooth,
 }
 
