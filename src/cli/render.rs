@@ -317,6 +317,14 @@ fn load(
                     mesh: None,
                 })));
             }
+            let beyond = vol.beyond_f32();
+            if beyond > 0 {
+                let w = vec![format!(
+                    "{beyond} float64 samples lie beyond float32's range (±3.4e38) and render as ±infinity"
+                )];
+                super::print_warnings(path, &w);
+                warnings.extend(w);
+            }
             Ok(Input::Volume(Box::new(vol)))
         }
     }

@@ -13,7 +13,9 @@
 //! Samples keep their type (`int8`, `uint8`, `int16`, `uint16`, `int32`,
 //! `uint32`, `float32`): a `uint8` CT stays one byte a voxel. `float64`
 //! narrows to `float32` (round to nearest: a relative error of at most
-//! 2⁻²⁴, the precision every mode computes in anyway). A sample is read as
+//! 2⁻²⁴, the precision every mode computes in anyway; finite samples beyond
+//! `float32`'s range become `±∞`, which `voxkit render` counts in a warning:
+//! [`ScalarVolume::beyond_f32`](crate::grid::ScalarVolume::beyond_f32)). A sample is read as
 //! `f32` ([`Stored::value`]): integers convert exactly up to 2²⁴ and round to
 //! nearest beyond; NaN is stored as `−∞` (it never holds a maximum, never
 //! reaches an iso value).

@@ -339,6 +339,62 @@ fn uniform_volumes_of_any_magnitude_render() {
     std::fs::remove_dir_all(&d).unwrap();
 }
 
+/// A `float64` volume whose samples lie beyond `f32`'s range (a `-1e300`
+/// "no data" sentinel) renders, and says how many samples turned into
+/// `±∞`; one within range says nothing.
+#[test]
+fn float64_beyond_f32_is_a_warning() {
+    let d = tmp("f64range");
+    for (name, values, count) in [
+        ("out", [0.5, -1e300, 2.0, 1e39], Some(12)),
+        ("in", [0.5, -3e38, 2.0, 1e-300], None),
+    ] {
+        let raw: Vec<u8> = values
+            .repeat(6)
+            .iter()
+            .flat_map(|x: &f64| x.to_le_bytes())
+            .collect();
+        std::fs::write(d.join(format!("{name}.raw")), raw).unwrap();
+        let header = d.join(format!("{name}.nhdr"));
+        std::fs::write(
+            &header,
+            format!(
+                "NRRD0004\ntype: double\ndimension: 3\nsizes: 4 3 2\nendian: little\n\
+                 encoding: raw\ndata file: {name}.raw\n\n"
+            ),
+        )
+        .unwrap();
+        let png = d.join(format!("{name}.png"));
+        let out = voxkit(&[
+            "render",
+            s(&header),
+            "-o",
+            s(&png),
+            "--size",
+            "16x16",
+            "--json",
+        ]);
+        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+        let j = json(&out);
+        let warnings = j["warnings"].as_array().unwrap();
+        match count {
+            Some(n) => {
+                let want = format!("{n} float64 samples lie beyond float32's range");
+                assert!(
+                    warnings
+                        .iter()
+                        .any(|w| w.as_str().unwrap().starts_with(&want)),
+                    "{j}"
+                );
+                assert!(stderr.contains(&want), "{stderr}");
+            }
+            None => assert!(warnings.is_empty(), "{j}"),
+        }
+        assert!(png.exists());
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
 /// `--reps` on a volume times the memory floor beside the frames: `floor_ms`
 /// and `frame_over_floor` (the frame's median over the floor's); a single
 /// render and a voxel grid have neither.
