@@ -537,10 +537,11 @@ impl VolumeOptions {
     }
 
     /// The 1% and 99.5% percentiles of the finite samples; if they are
-    /// equal in `f32` (`v`), `(v − d, v + d)` with `d = ½`, or four units
-    /// in the last place of `v` where `½` is less (`|v| ≥ 2²⁰`: a
-    /// uniform `u32` mask of `2³² − 1`), kept finite at `±f32::MAX`;
-    /// without finite samples `(0, 1)`.
+    /// equal in `f32` (`v`), `(v − d, v + d)` with `d = max(½, 4ε|v|)`
+    /// (at least four units in the last place of `v`, so that the window
+    /// is not empty where `v ± ½` rounds back to `v`: a uniform `u32` mask
+    /// of `2³² − 1`), kept finite at `±f32::MAX`; without finite samples
+    /// `(0, 1)`.
     ///
     /// ```
     /// use voxkit::grid::{ScalarVolume, VolumeData, VolumeFrame};
@@ -597,8 +598,8 @@ fn window_of_percentiles(lo: f64, hi: f64) -> (f32, f32) {
     } else if lo < hi {
         (lo, hi)
     } else {
-        // Half a unit, or four ulps where half a unit would round away
-        // (`lo ± ½ == lo` from 2²³ on).
+        // Half a unit, or at least four ulps where half a unit would
+        // round away (`lo ± ½ == lo` from 2²³ on).
         let d = (lo.abs() * (4.0 * f32::EPSILON)).max(0.5);
         let (below, above) = (lo - d, lo + d);
         (
@@ -1626,6 +1627,9 @@ pub fn render_volume(
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+    use crate::grid::{VolumeData, VolumeFrame};
+
     /// A uniform volume's window holds its value strictly inside, finite,
     /// at every magnitude (a `u32` mask of `2³² − 1` and `±f32::MAX`
     /// included), and is `v ± ½` where that is exact; the default iso
@@ -1655,9 +1659,6 @@ mod tests {
         let o = VolumeOptions::with_window(VolumeMode::Mip, (0.2, 0.9));
         assert_eq!(o.middle_of_window(), (0.2f32 + 0.9) * 0.5);
     }
-
-    use super::*;
-    use crate::grid::{VolumeData, VolumeFrame};
 
     /// Each pyramid level holds the maxima over its blocks of bricks.
     #[test]
