@@ -983,10 +983,11 @@ mod tests {
             },
         ];
         for f in bad {
-            assert!(
-                matches!(f.validate(), Err(VoxkitError::Invalid(_))),
-                "{f:?}"
-            );
+            let e = f.validate();
+            assert!(matches!(e, Err(VoxkitError::Invalid(_))), "{f:?}");
+            // The axes in a user's numbers, not glam's `Debug` dump.
+            let msg = e.unwrap_err().to_string();
+            assert!(!msg.contains("DVec3") && msg.contains("axes ["), "{msg}");
         }
         // Negative spacing is a mirror, not an error.
         let m = VolumeFrame::from_spacing(DVec3::ONE, DVec3::new(-2.0, 1.0, 0.5));
