@@ -189,6 +189,11 @@ impl Camera {
     /// let cam = Camera::framing(DVec3::ZERO, DVec3::ONE, DVec3::new(1.0, 1.0, 1.0), DVec3::Y, Some(40.0), 64, 64).unwrap();
     /// cam.validate().unwrap();
     /// assert!((cam.target - DVec3::splat(0.5)).length() < 1e-12);
+    /// // A box that vanishes beside its distance from the origin leaves no
+    /// // room in `f64` for a camera: refused, with the cause.
+    /// let far = DVec3::splat(1e6);
+    /// let err = Camera::framing(far, far + 1e-30, DVec3::X, DVec3::Y, Some(40.0), 64, 64).unwrap_err();
+    /// assert!(err.to_string().contains("too small beside its distance from the origin"));
     /// ```
     pub fn framing(
         min: DVec3,
@@ -262,6 +267,18 @@ impl Camera {
             }
         };
         cam.fit_clip(min, max);
+        // A box whose extent vanishes beside its distance from the origin
+        // (a spacing of 1e-30 at 1e6) leaves no room in `f64` between the
+        // eye and the target, or the clip distances: say so, not only that
+        // the camera is unusable.
+        if cam.validate().is_err() {
+            return Err(VoxkitError::invalid(format!(
+                "camera framing: the box {min} .. {max} (extent {:e}) is too small beside its \
+                 distance from the origin for double precision to place a camera; scale its \
+                 spacing up or move its origin nearer",
+                (max - min).length()
+            )));
+        }
         Ok(cam)
     }
 

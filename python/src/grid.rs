@@ -542,9 +542,15 @@ pub fn load_grid(py: Python<'_>, path: PathBuf, max_memory_mib: u64, level: u32)
 /// the file: hidden .vox layers, glTF extensions ignored, ...) as a Python
 /// `UserWarning` naming the file, as the command line prints them.
 fn warn_each(py: Python<'_>, path: &std::path::Path, warnings: &[String]) -> PyResult<()> {
+    warn_about(py, &path.display().to_string(), warnings)
+}
+
+/// Issues each of `warnings` about `what` (a file, or an array) as a
+/// Python `UserWarning`, `"{what}: {warning}"`.
+pub(crate) fn warn_about(py: Python<'_>, what: &str, warnings: &[String]) -> PyResult<()> {
     let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
     for w in warnings {
-        let msg = std::ffi::CString::new(format!("{}: {w}", path.display()))
+        let msg = std::ffi::CString::new(format!("{what}: {w}"))
             .unwrap_or_else(|_| c"(a warning with a NUL byte)".to_owned());
         PyErr::warn(py, &category, &msg, 1)?;
     }

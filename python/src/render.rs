@@ -484,19 +484,20 @@ pub fn render_volume<'py>(
     }
     let vol = volume_of(array, spacing, origin, axes, space)?;
     let tf = tf.map(str::to_string);
-    let img = run(py, || {
+    let (img, warnings) = run(py, || {
         if volume.is_none() && vol.is_binary() {
             // A 0/1 grid: occupancy, as `voxkit render` treats it.
             let xf = GridTransform::new(vol.frame.origin, vol.frame.axes)?;
             let full = PixelWindow::full(&v.opts);
-            return render_in(
+            let img = render_in(
                 &vol.to_brick_grid(),
                 vol.dims,
                 &xf,
                 SceneAxes::Y_UP,
                 &v,
                 full,
-            );
+            )?;
+            return Ok((img, Vec::new()));
         }
         // The default window reads every sample: only when none is given,
         // and then while the bricks are built.
@@ -525,8 +526,10 @@ pub fn render_volume<'py>(
         let d = scene.dims().map(|x| x as f64);
         let (lo, hi) = xf.world_bounds(DVec3::splat(-0.5), DVec3::from_array(d) - 0.5);
         let cam = v.camera(lo, hi, scene.scene_axes())?;
-        Ok(voxkit::render::render_volume(&scene, &cam, &v.opts, &vopts)?.0)
+        let img = voxkit::render::render_volume(&scene, &cam, &v.opts, &vopts)?.0;
+        Ok((img, scene.warnings()))
     })?;
+    crate::grid::warn_about(py, "volume", &warnings)?;
     Ok(to_arrays(py, img, v.opts.background))
 }
 

@@ -70,10 +70,32 @@ def test_read_volume_and_render_it():
 def test_uniform_volumes_of_any_magnitude_render(value):
     """A uniform volume gets a proper default window and iso value even
     where `v ± 0.5` rounds back to `v` (a uint32 mask of 2**32 - 1)."""
+    import contextlib
+
     arr = np.full((5, 4, 3), value)
+    # -1e300 lies beyond float32's range: a warning says so (see below).
+    beyond = abs(float(value)) > float(np.finfo(np.float32).max)
     for volume, method in [("mip", "rays"), ("composite", "shear-warp"), ("iso", "rays")]:
-        rgb, depth = voxkit.render(arr, size=(12, 10), volume=volume, method=method)
+        with pytest.warns(UserWarning, match="beyond float32") if beyond else contextlib.nullcontext():
+            rgb, depth = voxkit.render(arr, size=(12, 10), volume=volume, method=method)
         assert rgb.shape == (10, 12, 3)
+
+
+def test_float64_beyond_float32_is_a_warning():
+    """float64 samples beyond float32's range (a -1e300 "no data" sentinel)
+    render as +-inf, and `render` says how many, as the CLI does; a volume
+    within range, its extremes included, renders without a warning."""
+    import warnings
+
+    arr = np.tile(np.array([0.5, -1e300, 2.0, 1e39]), 15).reshape(5, 4, 3)
+    for method in ["rays", "shear-warp"]:
+        with pytest.warns(UserWarning, match=r"^volume: 30 float64 samples lie beyond float32's range"):
+            rgb, _ = voxkit.render(arr, size=(12, 10), method=method)
+        assert rgb.shape == (10, 12, 3)
+    inside = np.tile(np.array([0.5, -3e38, 2.0, 1e-300, np.inf, np.nan]), 10).reshape(5, 4, 3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        voxkit.render(inside, size=(12, 10))
 
 
 def test_nifti_reads_as_its_metaimage():

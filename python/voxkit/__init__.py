@@ -587,6 +587,9 @@ def render(
 
     Returns ``(rgb (H, W, 3) uint8, depth (H, W) float32)``; depth is the
     world distance along the ray to the hit, ``inf`` where nothing was hit.
+    A float64 volume is rendered in float32: samples beyond float32's range
+    (a ``-1e300`` "no data" value) become ``±inf``, and a ``UserWarning``
+    says how many.
 
     ``pixels=(x, y, w, h)`` (voxels only) renders just that
     rectangle of the ``size`` frame (row 0 at the top), pixel for pixel the

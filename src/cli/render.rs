@@ -317,14 +317,6 @@ fn load(
                     mesh: None,
                 })));
             }
-            let beyond = vol.beyond_f32();
-            if beyond > 0 {
-                let w = vec![format!(
-                    "{beyond} float64 samples lie beyond float32's range (±3.4e38) and render as ±infinity"
-                )];
-                super::print_warnings(path, &w);
-                warnings.extend(w);
-            }
             Ok(Input::Volume(Box::new(vol)))
         }
     }
@@ -525,6 +517,9 @@ pub fn run(args: RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
                 Some(w) => (VolumeScene::from_volume(*vol, limit)?, w),
                 None => VolumeScene::with_default_window(*vol, limit)?,
             };
+            let w = vs.warnings();
+            super::print_warnings(&args.input, &w);
+            warnings.extend(w);
             let vopts = volume_options(&args, window)?;
             info.insert("kind".into(), "volume".into());
             info.insert("dims".into(), serde_json::json!(vs.dims()));

@@ -557,26 +557,6 @@ impl ScalarVolume {
         DenseGrid::from_vec(self.dims, out)
     }
 
-    /// The finite samples beyond `f32`'s range (`|x| > f32::MAX`), which
-    /// rendering holds as `±∞` (a `float64` volume narrows to `f32`); `0`
-    /// for every other sample type.
-    ///
-    /// ```
-    /// use voxkit::grid::{ScalarVolume, VolumeData, VolumeFrame};
-    /// let data = VolumeData::F64(vec![1.0, -1e300, 3e38, 1e39, f64::INFINITY]);
-    /// let v = ScalarVolume::new([5, 1, 1], data, VolumeFrame::default()).unwrap();
-    /// assert_eq!(v.beyond_f32(), 2);
-    /// ```
-    pub fn beyond_f32(&self) -> u64 {
-        match &self.data {
-            VolumeData::F64(v) => v
-                .par_iter()
-                .filter(|x| x.is_finite() && (**x as f32).is_infinite())
-                .count() as u64,
-            _ => 0,
-        }
-    }
-
     /// The smallest and largest finite sample, or `None` if no sample is
     /// finite (NaN and ±∞ are skipped).
     pub fn range(&self) -> Option<(f64, f64)> {

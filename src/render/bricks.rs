@@ -14,8 +14,9 @@
 //! `uint32`, `float32`): a `uint8` CT stays one byte a voxel. `float64`
 //! narrows to `float32` (round to nearest: a relative error of at most
 //! 2⁻²⁴, the precision every mode computes in anyway; finite samples beyond
-//! `float32`'s range become `±∞`, which `voxkit render` counts in a warning:
-//! [`ScalarVolume::beyond_f32`](crate::grid::ScalarVolume::beyond_f32)). A sample is read as
+//! `float32`'s range become `±∞`, counted as they narrow:
+//! [`VolumeBricks::narrowed_to_infinity`], which `voxkit render` and the Python
+//! `render` report in a warning). A sample is read as
 //! `f32` ([`Stored::value`]): integers convert exactly up to 2²⁴ and round to
 //! nearest beyond; NaN is stored as `−∞` (it never holds a maximum, never
 //! reaches an iso value).
@@ -156,6 +157,8 @@ pub struct VolumeBricks {
     store: Store,
     ranges: Vec<BrickRange>,
     source: ScalarType,
+    /// Finite `float64` samples stored as `±∞` (beyond `f32`'s range).
+    narrowed_to_infinity: u64,
 }
 
 impl VolumeBricks {
@@ -209,7 +212,7 @@ impl VolumeBricks {
                 in_place($v, dims, &mut ranges, $fix, count, &mut first, limit)?
             };
         }
-        let mut dense = Vec::new();
+        let (mut dense, mut narrowed_to_infinity) = (Vec::new(), 0);
         let store = match volume.data {
             VolumeData::I8(v) => Store::I8(in_place!(v, |x| x)),
             VolumeData::U8(v) => Store::U8(in_place!(v, |x| x)),
@@ -223,7 +226,9 @@ impl VolumeBricks {
                 if count {
                     dense = percentiles_of(&v, ps);
                 }
-                Store::F32(narrowed(&v, dims, &mut ranges, limit)?)
+                let (store, beyond) = narrowed(&v, dims, &mut ranges, limit)?;
+                narrowed_to_infinity = beyond;
+                Store::F32(store)
             }
         };
         let bricks = VolumeBricks {
@@ -232,6 +237,7 @@ impl VolumeBricks {
             store,
             ranges,
             source,
+            narrowed_to_infinity,
         };
         let p = match first {
             Some(first) => with_store!(&bricks.store, v => bricks.percentiles_of(v, ps, first)),
@@ -350,6 +356,22 @@ impl VolumeBricks {
     /// hold it, but `float64`, which they hold as `float32`).
     pub fn source_type(&self) -> ScalarType {
         self.source
+    }
+
+    /// How many finite samples of a `float64` volume lie beyond `f32`'s
+    /// range (`|x| > f32::MAX` after rounding) and are held as `±∞`:
+    /// counted as they narrow, `0` for every other sample type.
+    ///
+    /// ```
+    /// use voxkit::grid::{MemoryLimit, ScalarVolume, VolumeData, VolumeFrame};
+    /// use voxkit::render::VolumeBricks;
+    /// let data = VolumeData::F64(vec![1.0, -1e300, 3e38, 1e39, f64::INFINITY, f64::NAN]);
+    /// let vol = ScalarVolume::new([6, 1, 1], data, VolumeFrame::default()).unwrap();
+    /// let b = VolumeBricks::from_volume(vol, MemoryLimit::DEFAULT).unwrap();
+    /// assert_eq!(b.narrowed_to_infinity(), 2);
+    /// ```
+    pub fn narrowed_to_infinity(&self) -> u64 {
+        self.narrowed_to_infinity
     }
 
     /// The smallest and largest sample of a volume of 8- or 16-bit
@@ -767,13 +789,14 @@ impl ThreadTables {
 }
 
 /// Bricks of `f32` from dense `f64` samples (a new vector: the types differ
-/// in size), and the ranges.
+/// in size), and the ranges; returns the bricks and the finite samples that
+/// narrowed to `±∞` (each counted once, in the slab of its own layer).
 fn narrowed(
     v: &[f64],
     dims: [usize; 3],
     ranges: &mut [BrickRange],
     limit: MemoryLimit,
-) -> Result<Vec<f32>> {
+) -> Result<(Vec<f32>, u64)> {
     let [nx, ny, nz] = dims;
     let bd = dims.map(|d| d.div_ceil(BRICK as usize));
     let slice = nx * ny;
@@ -787,17 +810,23 @@ fn narrowed(
     let conv = |x: f64| denan(x as f32);
     let mut slab: Vec<f32> = Vec::new();
     let mut layers = LayerRanges::new(dims);
+    let mut beyond = 0u64;
     for k in 0..bd[2] {
         let z0 = k * BRICK as usize;
         let lo = z0.saturating_sub(2);
         let hi = (z0 + BRICK as usize + 2).min(nz);
+        let z1 = (z0 + BRICK as usize).min(nz);
         slab.clear();
         slab.extend(v[lo * slice..hi * slice].iter().map(|&x| conv(x)));
+        // The layer's own slices (the aprons are counted in their layers).
+        let own = (z0 - lo) * slice..(z1 - lo) * slice;
+        beyond += (slab[own.clone()].iter().zip(&v[z0 * slice..z1 * slice]))
+            .map(|(y, x)| u64::from(y.is_infinite() && x.is_finite()))
+            .sum::<u64>();
         let slab_rows = &slab;
         let row = |z: usize, y: usize| &slab_rows[((z - lo) * ny + y) * nx..][..nx];
         let rlayer = &mut ranges[k * bd[0] * bd[1]..(k + 1) * bd[0] * bd[1]];
         layers.layer(rlayer, k, &row, &|x| x);
-        let z1 = (z0 + BRICK as usize).min(nz);
         let slab_ref = &slab;
         out[k * layer..(k + 1) * layer]
             .par_chunks_mut(BRICK_LEN)
@@ -809,7 +838,7 @@ fn narrowed(
                 });
             });
     }
-    Ok(out)
+    Ok((out, beyond))
 }
 
 /// Writes brick `(bx, by)` of a layer of `depth` slices (padding with the

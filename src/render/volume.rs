@@ -218,6 +218,32 @@ impl VolumeScene {
         &self.bricks
     }
 
+    /// What preparing the volume changed in its values, one line each, for
+    /// a user to see (`voxkit render` prints them and lists them in
+    /// `--json` `warnings`; the Python `render` issues them as
+    /// `UserWarning`s): today, the `float64` samples beyond `f32`'s range
+    /// that render as `±∞` ([`VolumeBricks::narrowed_to_infinity`]).
+    ///
+    /// ```
+    /// use voxkit::grid::{MemoryLimit, ScalarVolume, VolumeData, VolumeFrame};
+    /// use voxkit::render::VolumeScene;
+    /// let data = VolumeData::F64(vec![0.5, -1e300, 2.0, 1e39]);
+    /// let vol = ScalarVolume::new([4, 1, 1], data, VolumeFrame::default()).unwrap();
+    /// let scene = VolumeScene::from_volume(vol, MemoryLimit::DEFAULT).unwrap();
+    /// assert!(scene.warnings()[0].starts_with("2 float64 samples lie beyond float32's range"));
+    /// ```
+    pub fn warnings(&self) -> Vec<String> {
+        let beyond = self.bricks.narrowed_to_infinity();
+        (beyond > 0)
+            .then(|| {
+                format!(
+                    "{beyond} float64 samples lie beyond float32's range (±3.4e38) and render as ±infinity"
+                )
+            })
+            .into_iter()
+            .collect()
+    }
+
     /// The value of voxel `v` as the renderer reads it (`f32`, NaN as
     /// `−∞`), `None` outside the volume.
     pub fn value(&self, v: IVec3) -> Option<f32> {

@@ -395,6 +395,48 @@ fn float64_beyond_f32_is_a_warning() {
     std::fs::remove_dir_all(&d).unwrap();
 }
 
+/// A volume whose extent vanishes beside its distance from the origin (a
+/// spacing of 1e-30 at 1e6: its box is one point in `f64`) is refused with
+/// exit 2 and one line that names the cause, not only "eye equals target".
+#[test]
+fn a_volume_too_small_for_its_position_names_the_cause() {
+    let d = tmp("tinyfar");
+    std::fs::write(d.join("v.raw"), [1u8, 2, 3, 4, 5, 6, 7, 8]).unwrap();
+    let header = d.join("v.nhdr");
+    std::fs::write(
+        &header,
+        "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\
+         space: right-anterior-superior\n\
+         space directions: (1e-30,0,0) (0,1e-30,0) (0,0,1e-30)\n\
+         space origin: (1e6,1e6,1e6)\ndata file: v.raw\n\n",
+    )
+    .unwrap();
+    for method in ["rays", "shear-warp"] {
+        let png = d.join("v.png");
+        let out = voxkit(&[
+            "render",
+            s(&header),
+            "-o",
+            s(&png),
+            "--size",
+            "16x16",
+            "--volume",
+            "mip",
+            "--method",
+            method,
+        ]);
+        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+        assert_eq!(out.status.code(), Some(2), "{stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+        assert!(
+            stderr.contains("too small beside its distance from the origin"),
+            "{stderr}"
+        );
+        assert!(!png.exists());
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
 /// `--reps` on a volume times the memory floor beside the frames: `floor_ms`
 /// and `frame_over_floor` (the frame's median over the floor's); a single
 /// render and a voxel grid have neither.
