@@ -372,13 +372,19 @@ fn volume_of(
         (d, VolumeData::F32(v))
     } else if let Some((d, v)) = samples::<f64>(array) {
         (d, VolumeData::F64(v))
+    } else if let Some((d, v)) = samples::<i64>(array) {
+        // NumPy's default integer type: in the narrowest type that holds
+        // every sample exactly.
+        (d, VolumeData::from_i64(v))
+    } else if let Some((d, v)) = samples::<u64>(array) {
+        (d, VolumeData::from_u64(v))
     } else {
         let got = match array.cast::<numpy::PyUntypedArray>() {
             Ok(a) => format!("shape {:?}, dtype {}", a.shape(), a.dtype()),
             Err(_) => "not a numpy array".to_string(),
         };
         return Err(value_error(format!(
-            "a volume must be a 3D array of bool, (u)int8/16/32, float32 or float64 ({got})"
+            "a volume must be a 3D array of bool, (u)int8/16/32/64, float16/32 or float64 ({got})"
         )));
     };
     let origin = DVec3::from_array(origin);

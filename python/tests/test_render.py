@@ -98,6 +98,27 @@ def test_float64_beyond_float32_is_a_warning():
         voxkit.render(inside, size=(12, 10))
 
 
+@pytest.mark.parametrize(
+    "values, same_as",
+    [
+        (np.arange(60) % 7, np.uint8),  # NumPy's default int64: small labels
+        (np.arange(60) * 1000 - 30000, np.int32),
+        (np.arange(60, dtype=np.int64) * (1 << 36), np.float64),  # beyond 32 bits
+        (np.arange(60, dtype=np.uint64) * 3, np.uint8),
+        (np.linspace(-2, 5, 60).astype(np.float16), np.float32),
+    ],
+)
+def test_wide_integer_and_half_arrays_render_as_their_values(values, same_as):
+    """int64 / uint64 (NumPy's default integers) and float16 arrays render
+    exactly as the same values in a type voxkit holds, in every mode."""
+    arr = values.reshape(5, 4, 3)
+    for volume, method in [("mip", "rays"), ("composite", "shear-warp"), ("iso", "rays")]:
+        got = voxkit.render(arr, size=(16, 12), volume=volume, method=method)
+        want = voxkit.render(arr.astype(same_as), size=(16, 12), volume=volume, method=method)
+        for g, w in zip(got, want):
+            assert np.array_equal(g, w), (values.dtype, volume)
+
+
 def test_nifti_reads_as_its_metaimage():
     """A gzipped NIfTI-1 written by nibabel holds the MR volume of the .mhd."""
     mhd = voxkit.read_volume(ROOT / "data" / "volumes" / "HeadMRVolume" / "HeadMRVolume.mhd")

@@ -587,6 +587,8 @@ def render(
 
     Returns ``(rgb (H, W, 3) uint8, depth (H, W) float32)``; depth is the
     world distance along the ray to the hit, ``inf`` where nothing was hit.
+    64-bit integer arrays (NumPy's default) are held in the narrowest
+    integer type that holds every sample exactly (beyond 32 bits: float64).
     A float64 volume is rendered in float32: samples beyond float32's range
     (a ``-1e300`` "no data" value) become ``±inf``, and a ``UserWarning``
     says how many.
@@ -639,6 +641,8 @@ def render(
     arr = np.asarray(arr)
     if arr.ndim != 3:
         raise ValueError(f"expected a VoxelGrid or a 3D array, got an array of shape {arr.shape}")
+    if arr.dtype == np.float16:
+        arr = arr.astype(np.float32)  # exact: every float16 is a float32
     win = None if window is None else (float(window[0]), float(window[1]))
     return _voxkit.render_volume(
         arr,

@@ -153,6 +153,65 @@ impl VolumeData {
     pub fn value(&self, i: usize) -> Option<f64> {
         with_samples!(self, v => v.get(i).map(|s| s.to_f64()))
     }
+
+    /// 64-bit integer samples (NumPy's default integer type; `int64` NRRD
+    /// and NIfTI data) in the narrowest of the types here that holds every
+    /// one exactly, tried in the order `uint8`, `int8`, `uint16`, `int16`,
+    /// `uint32`, `int32`: a label volume of small integers takes one byte a
+    /// voxel. Samples beyond 32 bits become `float64`, exact up to 2⁵³ in
+    /// magnitude and rounded to nearest beyond. An empty vector is `uint8`.
+    ///
+    /// ```
+    /// use voxkit::grid::{ScalarType, VolumeData};
+    /// assert_eq!(VolumeData::from_i64(vec![0, 3, 255]), VolumeData::U8(vec![0, 3, 255]));
+    /// assert_eq!(VolumeData::from_i64(vec![-1, 1000]), VolumeData::I16(vec![-1, 1000]));
+    /// assert_eq!(VolumeData::from_i64(vec![-1, 1 << 40]).scalar_type(), ScalarType::F64);
+    /// ```
+    pub fn from_i64(v: Vec<i64>) -> VolumeData {
+        narrowest(&v, |x| i128::from(x))
+    }
+
+    /// [`VolumeData::from_i64`] for unsigned 64-bit samples.
+    ///
+    /// ```
+    /// use voxkit::grid::VolumeData;
+    /// assert_eq!(VolumeData::from_u64(vec![7, 1 << 32]), VolumeData::F64(vec![7.0, 4294967296.0]));
+    /// ```
+    pub fn from_u64(v: Vec<u64>) -> VolumeData {
+        narrowest(&v, |x| i128::from(x))
+    }
+}
+
+/// [`VolumeData::from_i64`]'s choice: the samples `v` (each exactly
+/// `wide(x)`) in the narrowest type whose range holds all of them, else as
+/// `f64`.
+fn narrowest<T: Copy + Send + Sync>(v: &[T], wide: impl Fn(T) -> i128 + Sync) -> VolumeData {
+    let (lo, hi) = v
+        .par_iter()
+        .map(|&x| (wide(x), wide(x)))
+        .reduce(|| (0, 0), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+    let fits = |min: i128, max: i128| min <= lo && hi <= max;
+    // Every cast below is exact: the samples lie in the target's range.
+    macro_rules! to {
+        ($variant:ident, $t:ty) => {
+            VolumeData::$variant(v.par_iter().map(|&x| wide(x) as $t).collect())
+        };
+    }
+    if fits(0, u8::MAX.into()) {
+        to!(U8, u8)
+    } else if fits(i8::MIN.into(), i8::MAX.into()) {
+        to!(I8, i8)
+    } else if fits(0, u16::MAX.into()) {
+        to!(U16, u16)
+    } else if fits(i16::MIN.into(), i16::MAX.into()) {
+        to!(I16, i16)
+    } else if fits(0, u32::MAX.into()) {
+        to!(U32, u32)
+    } else if fits(i32::MIN.into(), i32::MAX.into()) {
+        to!(I32, i32)
+    } else {
+        to!(F64, f64)
+    }
 }
 
 /// An element type of [`VolumeData`]: what the statistics and the readers

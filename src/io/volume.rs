@@ -39,7 +39,9 @@
 //!   order, C or Fortran order, with shape `[nx, ny, nz]` and `a[x, y, z]`
 //!   = voxel `(x, y, z)` (see [`super::npy`]); C order (z fastest in the
 //!   file) is transposed to x fastest. `bool` arrays read as `uint8` 0/1.
-//!   Origin 0, unit spacing.
+//!   Axes of size 1 before or after the three are dropped (`(1, 1, nx, ny,
+//!   nz)`, as machine-learning tools save a volume); a 2-D array is an
+//!   image one voxel thick. Origin 0, unit spacing.
 //!
 //! Every header number is checked, the sample count is checked against
 //! the [`MemoryLimit`] before anything is allocated, and the data must
@@ -1711,14 +1713,35 @@ fn read_npy_preamble(r: &mut impl Read) -> Result<(String, u64)> {
     ))
 }
 
+/// The `[nx, ny, nz]` of an npy array's `shape`: three axes as they are;
+/// more when the extra axes have size 1 and come first or last (a batch or
+/// channel axis of one, as machine-learning tools save volumes: `(1, 1, nx,
+/// ny, nz)`), which leaves the samples' order unchanged in C and Fortran
+/// order alike; two (an image) as one voxel thick, `[nx, ny, 1]`.
+fn npy_volume_shape(shape: &[u64]) -> Option<[u64; 3]> {
+    let mut s = shape;
+    while s.len() > 3 && s[0] == 1 {
+        s = &s[1..];
+    }
+    while s.len() > 3 && s[s.len() - 1] == 1 {
+        s = &s[..s.len() - 1];
+    }
+    match *s {
+        [nx, ny] => Some([nx, ny, 1]),
+        [nx, ny, nz] => Some([nx, ny, nz]),
+        _ => None,
+    }
+}
+
 fn read_npy(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVolume> {
     let (file, len) = files.open(path)?;
     let mut r = BufReader::new(file);
     let (dict, start) = read_npy_preamble(&mut r)?;
     let h = parse_npy_header(&dict)?;
-    let sizes: [u64; 3] = h.shape.clone().try_into().map_err(|_| {
+    let sizes = npy_volume_shape(&h.shape).ok_or_else(|| {
         invalid(format!(
-            "npy array has shape {:?}: 3 dimensions are needed",
+            "npy array has shape {:?}: 3 dimensions are needed (2 for an image; more only \
+             when the extra ones, first or last, have size 1)",
             h.shape
         ))
     })?;

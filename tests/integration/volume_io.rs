@@ -616,13 +616,12 @@ fn metaimage_header_size_text_and_list() {
 }
 
 /// An npy file (version 1.0) with the given descr, order and body.
-fn npy_file(descr: &str, fortran: bool, shape: [usize; 3], body: &[u8]) -> Vec<u8> {
+fn npy_file(descr: &str, fortran: bool, shape: &[usize], body: &[u8]) -> Vec<u8> {
+    let axes: Vec<String> = shape.iter().map(usize::to_string).collect();
     let mut dict = format!(
-        "{{'descr': '{descr}', 'fortran_order': {}, 'shape': ({}, {}, {}), }}",
+        "{{'descr': '{descr}', 'fortran_order': {}, 'shape': ({}), }}",
         if fortran { "True" } else { "False" },
-        shape[0],
-        shape[1],
-        shape[2]
+        axes.join(", ")
     );
     let unpadded = 10 + dict.len() + 1;
     dict.push_str(&" ".repeat(unpadded.next_multiple_of(64) - unpadded));
@@ -684,7 +683,7 @@ fn npy_dtypes_orders_and_byte_orders() {
                 ));
                 write(
                     &p,
-                    &[&npy_file(&format!("{order}{code}"), fortran, DIMS, &body)],
+                    &[&npy_file(&format!("{order}{code}"), fortran, &DIMS, &body)],
                 );
                 let what = format!("{}", p.display());
                 let v =
@@ -698,10 +697,63 @@ fn npy_dtypes_orders_and_byte_orders() {
     }
     // NumPy reads any nonzero byte of a bool array as True.
     let p = dir.join("bool7.npy");
-    write(&p, &[&npy_file("|b1", false, [1, 1, 2], &[0, 7])]);
+    write(&p, &[&npy_file("|b1", false, &[1, 1, 2], &[0, 7])]);
     let v = read_volume(&p, MemoryLimit::DEFAULT).unwrap();
     assert!(v.is_binary());
     assert_eq!(v.get(0, 0, 1), 1.0);
+}
+
+/// Axes of size 1 before or after the three (a batch or channel axis, as
+/// machine-learning tools save a volume) are dropped, in C and Fortran
+/// order alike; a 2-D array reads as an image one voxel thick.
+#[test]
+fn npy_extra_axes_of_size_one_and_images() {
+    let dir = temp_dir("npy-axes");
+    let [nx, ny, nz] = DIMS;
+    let vals = values(ScalarType::I16, N);
+    let c_order: Vec<f64> = (0..nx)
+        .flat_map(|x| (0..ny).flat_map(move |y| (0..nz).map(move |z| (x, y, z))))
+        .map(|(x, y, z)| vals[x + nx * (y + ny * z)])
+        .collect();
+    for shape in [
+        vec![1, nx, ny, nz],
+        vec![nx, ny, nz, 1],
+        vec![1, 1, nx, ny, nz, 1],
+    ] {
+        for fortran in [false, true] {
+            let body = encode(
+                ScalarType::I16,
+                if fortran { &vals } else { &c_order },
+                false,
+            );
+            let p = dir.join(format!("{shape:?}-{fortran}.npy"));
+            write(&p, &[&npy_file("<i2", fortran, &shape, &body)]);
+            let v = read_volume(&p, MemoryLimit::DEFAULT).unwrap();
+            assert_eq!(v.dims, DIMS, "{shape:?}");
+            assert_samples(&v, ScalarType::I16, &vals, &format!("{shape:?} {fortran}"));
+        }
+    }
+    // An image [15, 7]: a[i, j] at voxel (i, j, 0), x fastest.
+    let (w, h) = (nx * ny, nz);
+    let image: Vec<f64> = (0..w * h).map(|i| vals[i]).collect();
+    for fortran in [false, true] {
+        let file: Vec<f64> = if fortran {
+            image.clone()
+        } else {
+            (0..w)
+                .flat_map(|i| (0..h).map(move |j| (i, j)))
+                .map(|(i, j)| image[i + w * j])
+                .collect()
+        };
+        let p = dir.join(format!("image-{fortran}.npy"));
+        let body = encode(ScalarType::I16, &file, false);
+        write(&p, &[&npy_file("<i2", fortran, &[w, h], &body)]);
+        let v = read_volume(&p, MemoryLimit::DEFAULT).unwrap();
+        assert_eq!((v.dims, v.source_type()), ([w, h, 1], ScalarType::I16));
+        for (i, &want) in image.iter().enumerate() {
+            assert_eq!(v.get(i % w, i / w, 0), want, "image {fortran}: {i}");
+        }
+    }
 }
 
 #[test]
@@ -720,7 +772,7 @@ fn npy_c_order_larger_than_one_transpose_block() {
         }
     }
     let p = dir.join("big.npy");
-    write(&p, &[&npy_file("<f8", false, dims, &body)]);
+    write(&p, &[&npy_file("<f8", false, &dims, &body)]);
     let v = read_volume(&p, MemoryLimit::DEFAULT).unwrap();
     assert_eq!(v.dims, dims);
     for x in 0..dims[0] {
@@ -1044,7 +1096,7 @@ fn sizes_over_the_limit_are_refused_before_reading() {
         Err(VoxkitError::Limits { .. })
     ));
     let p = dir.join("huge.npy");
-    write(&p, &[&npy_file("<f8", false, [4096, 4096, 4096], &[])]);
+    write(&p, &[&npy_file("<f8", false, &[4096, 4096, 4096], &[])]);
     assert!(matches!(
         read_volume(&p, tiny),
         Err(VoxkitError::Limits { .. })
@@ -1142,23 +1194,28 @@ fn metaimage_and_npy_bad_files() {
     };
     let body = encode(ScalarType::I16, &values(ScalarType::I16, N), false);
     expect_invalid(
-        &npy("short.npy", &npy_file("<i2", false, DIMS, &body[..209])),
+        &npy("short.npy", &npy_file("<i2", false, &DIMS, &body[..209])),
         &["209", "210"],
     );
     expect_invalid(
         &npy(
             "long.npy",
-            &npy_file("<i2", false, DIMS, &[&body[..], b"zz"].concat()),
+            &npy_file("<i2", false, &DIMS, &[&body[..], b"zz"].concat()),
         ),
         &["212"],
     );
-    expect_unsupported(&npy("i8.npy", &npy_file("<i8", false, DIMS, &body)));
-    expect_unsupported(&npy("c8.npy", &npy_file("<c8", false, DIMS, &body)));
-    // Same header length, two axes.
-    let mut two_d = npy_file("<i2", false, DIMS, &body);
-    let at = two_d.windows(9).position(|w| w == b"(5, 3, 7)").unwrap();
-    two_d[at..at + 9].copy_from_slice(b"(105, 2) ");
-    expect_invalid(&npy("2d.npy", &two_d), &["3 dimensions"]);
+    expect_unsupported(&npy("i8.npy", &npy_file("<i8", false, &DIMS, &body)));
+    expect_unsupported(&npy("c8.npy", &npy_file("<c8", false, &DIMS, &body)));
+    // Same header length, an axis of size 1 between the three: not one
+    // a volume may drop.
+    let mut four_d = npy_file("<i2", false, &DIMS, &body);
+    let at = four_d.windows(9).position(|w| w == b"(5, 3, 7)").unwrap();
+    four_d[at..at + 9].copy_from_slice(b"(5,3,1,7)");
+    expect_invalid(&npy("4d.npy", &four_d), &["3 dimensions"]);
+    expect_invalid(
+        &npy("1d.npy", &npy_file("<i2", false, &[105], &body)),
+        &["3 dimensions"],
+    );
     expect_invalid(
         &npy("magic.npy", b"\x93NUMPZ\x01\x00\x10\x00{}"),
         &["magic"],
@@ -1195,7 +1252,7 @@ fn garbage_never_panics() {
             ]
             .concat(),
         ),
-        ("npy", npy_file("<i2", false, DIMS, &raw)),
+        ("npy", npy_file("<i2", false, &DIMS, &raw)),
     ];
     let limit = MemoryLimit::new(1 << 24);
     let mut tried = 0;
