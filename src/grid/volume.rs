@@ -168,7 +168,7 @@ impl VolumeData {
     /// assert_eq!(VolumeData::from_i64(vec![-1, 1 << 40]).scalar_type(), ScalarType::F64);
     /// ```
     pub fn from_i64(v: Vec<i64>) -> VolumeData {
-        narrowest(&v, |x| i128::from(x))
+        narrowest(&v, i128::from)
     }
 
     /// [`VolumeData::from_i64`] for unsigned 64-bit samples.
@@ -178,7 +178,7 @@ impl VolumeData {
     /// assert_eq!(VolumeData::from_u64(vec![7, 1 << 32]), VolumeData::F64(vec![7.0, 4294967296.0]));
     /// ```
     pub fn from_u64(v: Vec<u64>) -> VolumeData {
-        narrowest(&v, |x| i128::from(x))
+        narrowest(&v, i128::from)
     }
 }
 
