@@ -35,10 +35,13 @@
 //!   `AnatomicalOrientation` (other than MetaIO's `???`) marks the world as
 //!   ITK's LPS. Keys are matched without
 //!   regard to case; `ObjectType` may be missing.
-//! - **`.npy`** 3-D arrays of `i1 u1 b1 i2 u2 i4 u4 f4 f8`, either byte
+//! - **`.npy`** 3-D arrays of `i1 u1 b1 i2 u2 i4 u4 i8 u8 f2 f4 f8`, either byte
 //!   order, C or Fortran order, with shape `[nx, ny, nz]` and `a[x, y, z]`
 //!   = voxel `(x, y, z)` (see [`super::npy`]); C order (z fastest in the
-//!   file) is transposed to x fastest. `bool` arrays read as `uint8` 0/1.
+//!   file) is transposed to x fastest. `bool` arrays read as `uint8` 0/1;
+//!   64-bit integers (NumPy's default) in the narrowest type that holds
+//!   every sample exactly ([`VolumeData::from_i64`]); `float16` as
+//!   `float32`, exactly.
 //!   Axes of size 1 before or after the three are dropped (`(1, 1, nx, ny,
 //!   nz)`, as machine-learning tools save a volume); a 2-D array is an
 //!   image one voxel thick. Origin 0, unit spacing.
@@ -60,7 +63,9 @@ use rayon::prelude::*;
 
 use crate::error::{Result, VoxkitError};
 use crate::grid::volume::Sample;
-use crate::grid::{AnatomicalSpace, Dims, MemoryLimit, ScalarType, ScalarVolume, VolumeFrame};
+use crate::grid::{
+    AnatomicalSpace, Dims, MemoryLimit, ScalarType, ScalarVolume, VolumeData, VolumeFrame,
+};
 
 /// Headers longer than this are refused (a text header of a volume is a
 /// few hundred bytes; a LIST of file names may be longer).
@@ -1595,11 +1600,29 @@ fn read_metaimage(files: &Files, path: &Path, limit: MemoryLimit) -> Result<Scal
 /// What an npy header says about its array.
 #[derive(Debug, PartialEq)]
 struct NpyHeader {
+    /// The type the samples are read as.
     ty: ScalarType,
     big_endian: bool,
-    is_bool: bool,
+    kind: NpyKind,
     fortran: bool,
     shape: Vec<u64>,
+}
+
+/// What an npy array's samples, read as [`NpyHeader::ty`], still need.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum NpyKind {
+    /// Nothing.
+    Plain,
+    /// `b1`, read as `u8`: any nonzero byte is 1 (NumPy's `True`).
+    Bool,
+    /// `i8` / `u8` (NumPy's default integers), read as `f64` *bit patterns*
+    /// of the same width (the reader moves them, never computes on them),
+    /// then held in the narrowest exact type ([`VolumeData::from_i64`]).
+    Int64,
+    UInt64,
+    /// `f2`, read as `u16` bit patterns, then widened to `f32` (exactly:
+    /// every half is a float).
+    Half,
 }
 
 /// The text after `'key':` in an npy header dict.
@@ -1615,26 +1638,29 @@ fn npy_value<'a>(dict: &'a str, key: &str) -> Result<&'a str> {
         .ok_or_else(|| invalid(format!("npy header: no value for {key:?}")))
 }
 
-fn npy_dtype(descr: &str) -> Result<(ScalarType, bool, bool)> {
+fn npy_dtype(descr: &str) -> Result<(ScalarType, bool, NpyKind)> {
     let (order, code) = match descr.as_bytes().first() {
         Some(b'<' | b'>' | b'|' | b'=') => (descr.as_bytes()[0], &descr[1..]),
         _ => (b'=', descr),
     };
     // `|` (no order: single bytes) and `=` (native) both mean this machine.
     let big = order == b'>' || (order != b'<' && cfg!(target_endian = "big"));
-    let (ty, is_bool) = match code {
-        "i1" => (ScalarType::I8, false),
-        "u1" => (ScalarType::U8, false),
-        "b1" => (ScalarType::U8, true),
-        "i2" => (ScalarType::I16, false),
-        "u2" => (ScalarType::U16, false),
-        "i4" => (ScalarType::I32, false),
-        "u4" => (ScalarType::U32, false),
-        "f4" => (ScalarType::F32, false),
-        "f8" => (ScalarType::F64, false),
+    let (ty, kind) = match code {
+        "i1" => (ScalarType::I8, NpyKind::Plain),
+        "u1" => (ScalarType::U8, NpyKind::Plain),
+        "b1" => (ScalarType::U8, NpyKind::Bool),
+        "i2" => (ScalarType::I16, NpyKind::Plain),
+        "u2" => (ScalarType::U16, NpyKind::Plain),
+        "i4" => (ScalarType::I32, NpyKind::Plain),
+        "u4" => (ScalarType::U32, NpyKind::Plain),
+        "i8" => (ScalarType::F64, NpyKind::Int64),
+        "u8" => (ScalarType::F64, NpyKind::UInt64),
+        "f2" => (ScalarType::U16, NpyKind::Half),
+        "f4" => (ScalarType::F32, NpyKind::Plain),
+        "f8" => (ScalarType::F64, NpyKind::Plain),
         _ => return Err(unsupported(format!("npy dtype {descr:?}"))),
     };
-    Ok((ty, big, is_bool))
+    Ok((ty, big, kind))
 }
 
 fn parse_npy_header(dict: &str) -> Result<NpyHeader> {
@@ -1649,7 +1675,7 @@ fn parse_npy_header(dict: &str) -> Result<NpyHeader> {
         .next()
         .filter(|_| descr[1..].contains(quote))
         .ok_or_else(|| invalid("npy header: unterminated descr"))?;
-    let (ty, big_endian, is_bool) = npy_dtype(descr)?;
+    let (ty, big_endian, kind) = npy_dtype(descr)?;
     let fo = npy_value(dict, "fortran_order")?;
     let fortran = if fo.starts_with("True") {
         true
@@ -1674,7 +1700,7 @@ fn parse_npy_header(dict: &str) -> Result<NpyHeader> {
     Ok(NpyHeader {
         ty,
         big_endian,
-        is_bool,
+        kind,
         fortran,
         shape,
     })
@@ -1746,16 +1772,43 @@ fn read_npy(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVolu
         ))
     })?;
     let dims = checked_dims(sizes, h.ty, limit)?;
-    let need = dims.iter().product::<usize>() as u64 * h.ty.bytes() as u64;
+    let n = dims.iter().product::<usize>();
+    match h.kind {
+        // The 64-bit samples and their narrowed copy, at most as wide.
+        NpyKind::Int64 | NpyKind::UInt64 => limit.check(
+            &format!("{n} 64-bit integer samples, narrowed"),
+            n as u128,
+            16,
+        )?,
+        // The halves and their float32 copy.
+        NpyKind::Half => limit.check(&format!("{n} float16 samples, widened"), n as u128, 6)?,
+        NpyKind::Plain | NpyKind::Bool => {}
+    }
+    let need = n as u64 * h.ty.bytes() as u64;
     let have = len.saturating_sub(start);
     if have != need {
         return Err(size_error(path, "npy data", have, need, h.ty));
     }
-    let mut data = by_type!(h.ty, read_npy_data(path, &mut r, dims, &h, limit))?;
-    if let (true, crate::grid::VolumeData::U8(v)) = (h.is_bool, &mut data) {
-        // NumPy treats any nonzero byte of a bool array as True.
-        v.iter_mut().for_each(|b| *b = u8::from(*b != 0));
-    }
+    let data = by_type!(h.ty, read_npy_data(path, &mut r, dims, &h, limit))?;
+    let data = match (h.kind, data) {
+        (NpyKind::Bool, VolumeData::U8(mut v)) => {
+            // NumPy treats any nonzero byte of a bool array as True.
+            v.iter_mut().for_each(|b| *b = u8::from(*b != 0));
+            VolumeData::U8(v)
+        }
+        (NpyKind::Int64, VolumeData::F64(v)) => {
+            VolumeData::from_i64(v.into_iter().map(|x| x.to_bits() as i64).collect())
+        }
+        (NpyKind::UInt64, VolumeData::F64(v)) => {
+            VolumeData::from_u64(v.into_iter().map(f64::to_bits).collect())
+        }
+        (NpyKind::Half, VolumeData::U16(v)) => VolumeData::F32(
+            v.par_iter()
+                .map(|&b| half::f16::from_bits(b).to_f32())
+                .collect(),
+        ),
+        (_, data) => data,
+    };
     ScalarVolume::new(dims, data, VolumeFrame::default())
 }
 
@@ -2060,16 +2113,16 @@ mod tests {
             NpyHeader {
                 ty: ScalarType::I16,
                 big_endian: true,
-                is_bool: false,
+                kind: NpyKind::Plain,
                 fortran: true,
                 shape: vec![5, 3, 7]
             }
         );
         let h = parse_npy_header("{\"descr\": \"|b1\", \"fortran_order\": False, \"shape\": (2,)}")
             .unwrap();
-        assert!(h.is_bool && !h.fortran && h.shape == vec![2]);
+        assert!(h.kind == NpyKind::Bool && !h.fortran && h.shape == vec![2]);
         for bad in [
-            "{'descr': '<i8', 'fortran_order': False, 'shape': (1, 1, 1)}",
+            "{'descr': '<c8', 'fortran_order': False, 'shape': (1, 1, 1)}",
             "{'descr': '<U3', 'fortran_order': False, 'shape': (1, 1, 1)}",
             "{'descr': [('a', '<i4')], 'fortran_order': False, 'shape': (1, 1, 1)}",
         ] {

@@ -703,6 +703,106 @@ fn npy_dtypes_orders_and_byte_orders() {
     assert_eq!(v.get(0, 0, 1), 1.0);
 }
 
+/// 64-bit integer arrays (NumPy's default) read in the narrowest type that
+/// holds every sample exactly, either byte order, C and Fortran order;
+/// beyond 32 bits as `float64` (rounded to nearest past 2⁵³).
+#[test]
+fn npy_64_bit_integers_narrow_exactly() {
+    let dir = temp_dir("npy-i64");
+    let [nx, ny, nz] = DIMS;
+    type Case = (&'static str, fn(usize) -> i64, ScalarType);
+    let signed: [Case; 4] = [
+        ("labels", |i| (i % 9) as i64, ScalarType::U8),
+        ("centred", |i| i as i64 - 52, ScalarType::I8),
+        ("hu", |i| i as i64 * 40 - 1024, ScalarType::I16),
+        ("wide", |i| (i as i64 - 52) << 40, ScalarType::F64),
+    ];
+    let c_index = |i: usize| {
+        let (x, y, z) = (i % nx, i / nx % ny, i / (nx * ny));
+        z + nz * (y + ny * x)
+    };
+    for (name, f, ty) in &signed {
+        for big in [false, true] {
+            for fortran in [false, true] {
+                let mut file = vec![0i64; N];
+                for i in 0..N {
+                    file[if fortran { i } else { c_index(i) }] = f(i);
+                }
+                let body: Vec<u8> = file
+                    .iter()
+                    .flat_map(|x| {
+                        if big {
+                            x.to_be_bytes()
+                        } else {
+                            x.to_le_bytes()
+                        }
+                    })
+                    .collect();
+                let descr = if big { ">i8" } else { "<i8" };
+                let p = dir.join(format!("{name}-{big}-{fortran}.npy"));
+                write(&p, &[&npy_file(descr, fortran, &DIMS, &body)]);
+                let v = read_volume(&p, MemoryLimit::DEFAULT).unwrap();
+                assert_eq!(v.source_type(), *ty, "{name}");
+                for i in 0..N {
+                    let (x, y, z) = (i % nx, i / nx % ny, i / (nx * ny));
+                    assert_eq!(v.get(x, y, z), f(i) as f64, "{name} {big} {fortran}: {i}");
+                }
+            }
+        }
+    }
+    // Unsigned, up to 2⁶⁴ − 1 (which rounds to 2⁶⁴ in float64).
+    let f = |i: usize| if i == 0 { u64::MAX } else { i as u64 };
+    let body: Vec<u8> = (0..N).flat_map(|i| f(i).to_le_bytes()).collect();
+    let p = dir.join("u64.npy");
+    write(&p, &[&npy_file("<u8", true, &DIMS, &body)]);
+    let v = read_volume(&p, MemoryLimit::DEFAULT).unwrap();
+    assert_eq!(v.source_type(), ScalarType::F64);
+    assert_eq!(v.get(0, 0, 0), 18446744073709551616.0);
+    assert_eq!(v.get(4, 2, 6), (N - 1) as f64);
+}
+
+/// float16 arrays read as float32, exactly: normal, subnormal, largest,
+/// infinite and NaN halves, either byte order.
+#[test]
+fn npy_float16_widens_exactly() {
+    let dir = temp_dir("npy-f16");
+    let halves: [(u16, f64); 8] = [
+        (0x3800, 0.5),
+        (0xC080, -2.25),
+        (0x7BFF, 65504.0),
+        (0x0001, 2f64.powi(-24)),
+        (0x8000, -0.0),
+        (0x7C00, f64::INFINITY),
+        (0xFC00, f64::NEG_INFINITY),
+        (0x7E00, f64::NAN),
+    ];
+    for big in [false, true] {
+        let body: Vec<u8> = (0..N)
+            .flat_map(|i| {
+                let b = halves[i % halves.len()].0;
+                if big {
+                    b.to_be_bytes()
+                } else {
+                    b.to_le_bytes()
+                }
+            })
+            .collect();
+        let p = dir.join(format!("f16-{big}.npy"));
+        let descr = if big { ">f2" } else { "<f2" };
+        write(&p, &[&npy_file(descr, true, &DIMS, &body)]);
+        let v = read_volume(&p, MemoryLimit::DEFAULT).unwrap();
+        assert_eq!(v.source_type(), ScalarType::F32);
+        let [nx, ny, _] = DIMS;
+        for i in 0..N {
+            let (got, want) = (v.get(i % nx, i / nx % ny, i / (nx * ny)), halves[i % 8].1);
+            assert!(
+                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                "{i}: {got} != {want}"
+            );
+        }
+    }
+}
+
 /// Axes of size 1 before or after the three (a batch or channel axis, as
 /// machine-learning tools save a volume) are dropped, in C and Fortran
 /// order alike; a 2-D array reads as an image one voxel thick.
@@ -1204,7 +1304,6 @@ fn metaimage_and_npy_bad_files() {
         ),
         &["212"],
     );
-    expect_unsupported(&npy("i8.npy", &npy_file("<i8", false, &DIMS, &body)));
     expect_unsupported(&npy("c8.npy", &npy_file("<c8", false, &DIMS, &body)));
     // Same header length, an axis of size 1 between the three: not one
     // a volume may drop.
