@@ -269,9 +269,8 @@ impl Camera {
         cam.fit_clip(min, max);
         // A box whose extent vanishes beside its distance from the origin
         // (a spacing of 1e-30 at 1e6) leaves no room in `f64` between the
-        // eye and the target, or the clip distances: say so, not only that
-        // the camera is unusable.
-        if cam.validate().is_err() {
+        // eye and the target: say so, not only that the eye is the target.
+        if (cam.target - cam.eye).length_squared() == 0.0 {
             return Err(VoxkitError::invalid(format!(
                 "camera framing: the box {min} .. {max} (extent {:e}) is too small beside its \
                  distance from the origin for double precision to place a camera; scale its \
