@@ -206,7 +206,9 @@ impl Camera {
     ) -> Result<Self> {
         if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {
             return Err(VoxkitError::invalid(format!(
-                "camera framing: bad box {min} .. {max}"
+                "camera framing: bad box {} .. {}",
+                crate::error::shown(min),
+                crate::error::shown(max)
             )));
         }
         if width == 0 || height == 0 {
@@ -272,9 +274,11 @@ impl Camera {
         // eye and the target: say so, not only that the eye is the target.
         if (cam.target - cam.eye).length_squared() == 0.0 {
             return Err(VoxkitError::invalid(format!(
-                "camera framing: the box {min} .. {max} (extent {:e}) is too small beside its \
+                "camera framing: the box {} .. {} (extent {:e}) is too small beside its \
                  distance from the origin for double precision to place a camera; scale its \
                  spacing up or move its origin nearer",
+                crate::error::shown(min),
+                crate::error::shown(max),
                 (max - min).length()
             )));
         }

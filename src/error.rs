@@ -44,6 +44,26 @@ pub enum VoxkitError {
     },
 }
 
+/// A vector as a message shows it, `[x, y, z]`: each number as written
+/// (`0.5`, `-3`), or in exponent form beyond `1e-5 ≤ |x| < 1e16`, so that a
+/// spacing of 1e300 reads as `1e300` rather than as three hundred digits.
+///
+/// ```
+/// use glam::DVec3;
+/// assert_eq!(voxkit::error::shown(DVec3::new(0.5, -3.0, 0.0)), "[0.5, -3, 0]");
+/// assert_eq!(voxkit::error::shown(DVec3::new(1e300, 2.5e-30, f64::NAN)), "[1e300, 2.5e-30, NaN]");
+/// ```
+pub fn shown(v: glam::DVec3) -> String {
+    let number = |x: f64| {
+        if x == 0.0 || !x.is_finite() || (1e-5..1e16).contains(&x.abs()) {
+            format!("{x}")
+        } else {
+            format!("{x:e}")
+        }
+    };
+    format!("[{}, {}, {}]", number(v.x), number(v.y), number(v.z))
+}
+
 /// `text` with its control characters escaped (`\r`, `\t`, `\0`,
 /// `\u{1b}`…): messages quote what a file says (a header line, a name), and a
 /// stray carriage return or NUL there must not break the message's one line

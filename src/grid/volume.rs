@@ -433,12 +433,12 @@ impl VolumeFrame {
     /// that are not singular or nearly so (see [`VolumeFrame::MIN_CONDITION`]).
     pub fn validate(&self) -> Result<()> {
         let cols = [self.axes.x_axis, self.axes.y_axis, self.axes.z_axis];
-        // The columns as a user wrote them (glam's `Display`), not `Debug`.
-        let shown = || cols.map(|c| c.to_string()).join(", ");
+        // The columns as a user wrote them, not glam's `Debug`.
+        let shown = || cols.map(crate::error::shown).join(", ");
         if !self.origin.is_finite() || cols.iter().any(|c| !c.is_finite()) {
             return Err(VoxkitError::invalid(format!(
                 "volume frame is not finite: origin {}, axes {}",
-                self.origin,
+                crate::error::shown(self.origin),
                 shown()
             )));
         }
@@ -1015,6 +1015,7 @@ mod tests {
             VolumeFrame::from_spacing(DVec3::new(f64::NAN, 0.0, 0.0), DVec3::ONE),
             VolumeFrame::from_spacing(DVec3::ZERO, DVec3::new(1.0, f64::INFINITY, 1.0)),
             VolumeFrame::from_spacing(DVec3::ZERO, DVec3::splat(1e-200)),
+            VolumeFrame::from_spacing(DVec3::ZERO, DVec3::splat(1e300)),
             VolumeFrame {
                 origin: DVec3::ZERO,
                 // Two columns 1e-12 apart: nearly coplanar.
@@ -1027,6 +1028,8 @@ mod tests {
             // The axes in a user's numbers, not glam's `Debug` dump.
             let msg = e.unwrap_err().to_string();
             assert!(!msg.contains("DVec3") && msg.contains("axes ["), "{msg}");
+            // Extreme numbers in exponent form, not hundreds of digits.
+            assert!(msg.len() < 300 && !msg.contains("00000000"), "{msg}");
         }
         // Negative spacing is a mirror, not an error.
         let m = VolumeFrame::from_spacing(DVec3::ONE, DVec3::new(-2.0, 1.0, 0.5));
