@@ -154,8 +154,8 @@ impl VolumeData {
         with_samples!(self, v => v.get(i).map(|s| s.to_f64()))
     }
 
-    /// 64-bit integer samples (NumPy's default integer type; `int64` NRRD
-    /// and NIfTI data) in the narrowest of the types here that holds every
+    /// 64-bit integer samples (NumPy's default integer type: `.npy` files
+    /// and arrays given to the Python `render`) in the narrowest of the types here that holds every
     /// one exactly, tried in the order `uint8`, `int8`, `uint16`, `int16`,
     /// `uint32`, `int32`: a label volume of small integers takes one byte a
     /// voxel. Samples beyond 32 bits become `float64`, exact up to 2⁵³ in
@@ -186,6 +186,8 @@ impl VolumeData {
 /// `wide(x)`) in the narrowest type whose range holds all of them, else as
 /// `f64`.
 fn narrowest<T: Copy + Send + Sync>(v: &[T], wide: impl Fn(T) -> i128 + Sync) -> VolumeData {
+    // The range grown to hold 0 (the reduction's identity), which changes
+    // no choice: every candidate type's range holds 0.
     let (lo, hi) = v
         .par_iter()
         .map(|&x| (wide(x), wide(x)))

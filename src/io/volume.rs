@@ -1619,6 +1619,7 @@ enum NpyKind {
     /// of the same width (the reader moves them, never computes on them),
     /// then held in the narrowest exact type ([`VolumeData::from_i64`]).
     Int64,
+    /// `u8`, as `Int64` ([`VolumeData::from_u64`]).
     UInt64,
     /// `f2`, read as `u16` bit patterns, then widened to `f32` (exactly:
     /// every half is a float).

@@ -817,12 +817,15 @@ fn narrowed(
         let hi = (z0 + BRICK as usize + 2).min(nz);
         let z1 = (z0 + BRICK as usize).min(nz);
         slab.clear();
-        slab.extend(v[lo * slice..hi * slice].iter().map(|&x| conv(x)));
-        // The layer's own slices (the aprons are counted in their layers).
-        let own = (z0 - lo) * slice..(z1 - lo) * slice;
-        beyond += (slab[own.clone()].iter().zip(&v[z0 * slice..z1 * slice]))
-            .map(|(y, x)| u64::from(y.is_infinite() && x.is_finite()))
-            .sum::<u64>();
+        // The layer's own slices count what narrows to ±∞ as they convert
+        // (the aprons are counted in their own layers).
+        slab.extend(v[lo * slice..z0 * slice].iter().map(|&x| conv(x)));
+        slab.extend(v[z0 * slice..z1 * slice].iter().map(|&x| {
+            let y = conv(x);
+            beyond += u64::from(y.is_infinite() && x.is_finite());
+            y
+        }));
+        slab.extend(v[z1 * slice..hi * slice].iter().map(|&x| conv(x)));
         let slab_rows = &slab;
         let row = |z: usize, y: usize| &slab_rows[((z - lo) * ny + y) * nx..][..nx];
         let rlayer = &mut ranges[k * bd[0] * bd[1]..(k + 1) * bd[0] * bd[1]];
@@ -1091,6 +1094,42 @@ mod tests {
     fn bricks(dims: [usize; 3], data: VolumeData) -> VolumeBricks {
         let vol = ScalarVolume::new(dims, data, VolumeFrame::default()).unwrap();
         VolumeBricks::from_volume(vol, MemoryLimit::DEFAULT).unwrap()
+    }
+
+    /// The float64 samples that narrow to ±∞ are counted once each, over
+    /// many brick layers with their overlapping aprons, against a direct
+    /// count; NaN, ±∞ and in-range extremes are not counted.
+    #[test]
+    fn narrowed_to_infinity_counts_each_sample_once() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(21);
+        let specials = [
+            1e300,
+            -1e39,
+            3.4e38,
+            f64::INFINITY,
+            f64::NAN,
+            -f64::MAX,
+            1e-300,
+        ];
+        for dims in [[3, 2, 30], [9, 5, 17], [1, 1, 8], [4, 3, 1]] {
+            let n: usize = dims.iter().product();
+            let v: Vec<f64> = (0..n)
+                .map(|_| {
+                    if rng.random_bool(0.3) {
+                        specials[rng.random_range(0..specials.len())]
+                    } else {
+                        rng.random_range(-1e3..1e3)
+                    }
+                })
+                .collect();
+            let want = v
+                .iter()
+                .filter(|x| x.is_finite() && (**x as f32).is_infinite())
+                .count();
+            let b = bricks(dims, VolumeData::F64(v));
+            assert_eq!(b.narrowed_to_infinity(), want as u64, "{dims:?}");
+        }
     }
 
     /// A sample's expected value by its dense index.
