@@ -914,7 +914,7 @@ fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
     let mut raw = vec![0f32; row_len];
     let mut slab = Slab {
         layer: -1,
-        vals: Vec::new(),
+        vals: SLAB_BUFFER.take(),
         k_lo: 0,
         k_hi: -1,
         b_lo: 0,
@@ -1089,6 +1089,7 @@ fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
             }
         }
     }
+    SLAB_BUFFER.set(slab.vals);
     samples
 }
 
@@ -1383,6 +1384,16 @@ fn widened(lo: f32, hi: f32, mag: f32) -> (f32, f32) {
 /// Floats a band's [`Slab`] may hold (4 MiB); a layer needing more is read
 /// row by row.
 const SLAB_CAP: usize = 1 << 20;
+
+thread_local! {
+    /// A thread's [`Slab`] buffer, kept from band to band and frame to
+    /// frame (at most [`SLAB_CAP`] floats a thread). A slab is over the
+    /// allocator's huge-page threshold, so a fresh one per band was a
+    /// fresh 2 MiB mapping per band: its page fault, the kernel clearing
+    /// it and its unmapping cost ~7% of a 512³ MIP frame on an Intel VM
+    /// (within the noise on Zen 4; docs/performance-notes.md).
+    static SLAB_BUFFER: std::cell::Cell<Vec<f32>> = const { std::cell::Cell::new(Vec::new()) };
+}
 
 /// The slice rows a band needs from one layer of bricks (8 slices): read
 /// brick by brick, so each brick streams from memory once, where reading
