@@ -11,8 +11,9 @@
 //!   other things);
 //! - `dim`: 1 to 7 axes, the first three spatial; axes beyond the third
 //!   must have size 1 (a time series is [`VoxkitError::Unsupported`]);
-//! - `datatype` `UINT8` … `FLOAT64` (the eight [`ScalarType`]s); the rest
-//!   (binary, complex, RGB, 64-bit integers, `float128`) are unsupported;
+//! - `datatype` `UINT8` … `FLOAT64` (the eight [`ScalarType`]s), and
+//!   `INT64`/`UINT64` held in the narrowest type that holds every sample
+//!   exactly; the rest (binary, complex, RGB, `float128`) are unsupported;
 //! - placement, as the standard orders it: the `sform` affine where
 //!   `sform_code > 0`, else the `qform` quaternion with `pixdim` and `qfac`
 //!   where `qform_code > 0` (both in NIfTI's RAS world, kept as the
@@ -40,7 +41,7 @@ use glam::{DMat3, DQuat, DVec3};
 use rayon::prelude::*;
 
 use super::volume::{
-    Encoding, Files, Piece, Skip, Storage, checked_dims, invalid, io_at, read_samples,
+    Encoding, Files, Int64, Piece, Skip, Storage, checked_dims, invalid, io_at, read_samples,
     stream_error, unsupported,
 };
 use crate::error::Result;
@@ -215,9 +216,10 @@ fn parse_header(bytes: &[u8]) -> Result<Header> {
     Ok(h)
 }
 
-/// NIfTI's `datatype` codes of the types read.
-fn nifti_type(code: i64) -> Result<ScalarType> {
-    Ok(match code {
+/// NIfTI's `datatype` codes of the types read, and whether the type is a
+/// 64-bit integer (then read as [`ScalarType::F64`]-wide samples).
+fn nifti_type(code: i64) -> Result<(ScalarType, Option<Int64>)> {
+    let ty = match code {
         2 => ScalarType::U8,
         4 => ScalarType::I16,
         8 => ScalarType::I32,
@@ -226,24 +228,25 @@ fn nifti_type(code: i64) -> Result<ScalarType> {
         256 => ScalarType::I8,
         512 => ScalarType::U16,
         768 => ScalarType::U32,
-        1 | 32 | 128 | 1024 | 1280 | 1536 | 1792 | 2048 | 2304 => {
+        1024 => return Ok((ScalarType::F64, Some(Int64::Signed))),
+        1280 => return Ok((ScalarType::F64, Some(Int64::Unsigned))),
+        1 | 32 | 128 | 1536 | 1792 | 2048 | 2304 => {
             let name = match code {
                 1 => "binary",
                 32 => "complex64",
                 128 => "RGB24",
-                1024 => "int64",
-                1280 => "uint64",
                 1536 => "float128",
                 1792 => "complex128",
                 2048 => "complex256",
                 _ => "RGBA32",
             };
             return Err(unsupported(format!(
-                "NIfTI datatype {code} ({name}); scalar 8/16/32-bit integers, float32 and float64 are read"
+                "NIfTI datatype {code} ({name}); scalar 8/16/32/64-bit integers, float32 and float64 are read"
             )));
         }
         _ => return Err(invalid(format!("unknown NIfTI datatype {code}"))),
-    })
+    };
+    Ok((ty, None))
 }
 
 impl Header {
@@ -395,7 +398,7 @@ fn image_file(files: &Files, header: &Path) -> PathBuf {
 pub(super) fn read_nifti(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVolume> {
     let (head, header_gzipped) = read_prefix(files, path, NIFTI2_HEADER)?;
     let h = parse_header(&head)?;
-    let ty = nifti_type(h.datatype)?;
+    let (ty, int64) = nifti_type(h.datatype)?;
     let sizes = h.sizes()?;
     let scaling = h.scaling();
     let scaled_type = match ty {
@@ -450,6 +453,7 @@ pub(super) fn read_nifti(files: &Files, path: &Path, limit: MemoryLimit) -> Resu
         line_skip: 0,
         file_skip,
         decoded_skip,
+        int64,
     };
     let pieces = [Piece {
         path: data_path,
@@ -544,7 +548,7 @@ mod tests {
             let h = parse_header(&b).unwrap();
             assert_eq!(h.big_endian, big);
             assert_eq!(h.sizes().unwrap(), [4, 5, 6]);
-            assert_eq!(nifti_type(h.datatype).unwrap(), ScalarType::U16);
+            assert_eq!(nifti_type(h.datatype).unwrap(), (ScalarType::U16, None));
             assert_eq!(h.single_file, Some(true));
             assert_eq!(h.vox_offset, 352.0);
             let (frame, space) = h.frame().unwrap();

@@ -11,8 +11,10 @@
 //!   the image, of the mean in-plane spacing); `dimension` 4 and more when
 //!   the extra axes have size 1 (squeezed, non-spatial `none` axes first);
 //!   every NRRD spelling of
-//!   the 8/16/32-bit integer types, `float` and `double` (64-bit integers
-//!   and `block` are [`VoxkitError::Unsupported`]); encodings `raw`,
+//!   the 8/16/32-bit integer types, `float` and `double`, and of the 64-bit
+//!   integers, held in the narrowest type that holds every sample exactly
+//!   (as text, only integers below 2⁵³ in magnitude; `block` is
+//!   [`VoxkitError::Unsupported`]); encodings `raw`,
 //!   `gzip`/`gz`, `bzip2`/`bz2` (pure-Rust decoder) and `ascii`/`text`/`txt`
 //!   (`hex`, `zrl` are unsupported); `endian` (required for multi-byte binary data);
 //!   `space directions` (any invertible 3×3, `none` entries unsupported) or
@@ -25,7 +27,8 @@
 //!   `fmt min max step [subdim]` (`%d`-style, e.g. `slice%03d.raw 1 93 1`).
 //!   Relative data paths are relative to the header's directory.
 //! - **MetaImage** `NDims = 3`, `DimSize`, `ElementType` `MET_CHAR` …
-//!   `MET_DOUBLE`, `ElementSpacing` (else `ElementSize`),
+//!   `MET_DOUBLE` and `MET_LONG_LONG`/`MET_ULONG_LONG` (narrowed as NRRD's
+//!   64-bit integers), `ElementSpacing` (else `ElementSize`),
 //!   `Offset`/`Position`/`Origin`, `TransformMatrix`/`Orientation`/`Rotation`
 //!   (its first three numbers are the direction of grid axis 0, as ITK
 //!   reads it), `BinaryDataByteOrderMSB`/`ElementByteOrderMSB`,
@@ -538,6 +541,77 @@ pub(super) struct Storage {
     /// Bytes of the decompressed stream skipped (NRRD `byte skip` with
     /// gzip, which the format defines on the decompressed data).
     pub(super) decoded_skip: u64,
+    /// 64-bit integer samples (`ty` is then [`ScalarType::F64`], their
+    /// width), narrowed after reading.
+    pub(super) int64: Option<Int64>,
+}
+
+/// 64-bit integer samples, which no [`ScalarType`] holds: binary data is
+/// read as `f64` *bit patterns* of the same width (the reader moves them,
+/// never computes on them), text as numbers, and the samples are then held
+/// in the narrowest type that holds every one exactly
+/// ([`VolumeData::from_i64`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Int64 {
+    /// `int64`.
+    Signed,
+    /// `uint64`.
+    Unsigned,
+}
+
+impl Int64 {
+    /// Checks the memory of `n` samples and their narrowed copy, at most
+    /// as wide.
+    fn check(n: usize, limit: MemoryLimit) -> Result<()> {
+        limit.check(
+            &format!("{n} 64-bit integer samples, narrowed"),
+            n as u128,
+            16,
+        )
+    }
+
+    /// The samples `v` as read (bit patterns, or numbers from `text`) in
+    /// the narrowest exact type. A text sample must be an integer of
+    /// magnitude below 2⁵³ (every one of those parses exactly; a larger
+    /// one may have been rounded) and, unsigned, not negative.
+    fn narrow(self, v: Vec<f64>, text: bool) -> Result<VolumeData> {
+        const EXACT: f64 = 9_007_199_254_740_992.0; // 2^53
+        if text {
+            let signed = self == Int64::Signed;
+            if let Some(&x) = v
+                .iter()
+                .find(|&&x| !(x.fract() == 0.0 && x.abs() < EXACT && (signed || x >= 0.0)))
+            {
+                return Err(unsupported(format!(
+                    "{} text sample {x}: 64-bit integers are read from text only as integers \
+                     below 2^53 in magnitude{}",
+                    self.name(),
+                    if self == Int64::Unsigned {
+                        ", not negative"
+                    } else {
+                        ""
+                    }
+                )));
+            }
+            // Integers below 2^53 in magnitude: the casts are exact.
+            return Ok(VolumeData::from_i64(
+                v.into_iter().map(|x| x as i64).collect(),
+            ));
+        }
+        Ok(match self {
+            Int64::Signed => {
+                VolumeData::from_i64(v.into_iter().map(|x| x.to_bits() as i64).collect())
+            }
+            Int64::Unsigned => VolumeData::from_u64(v.into_iter().map(f64::to_bits).collect()),
+        })
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Int64::Signed => "int64",
+            Int64::Unsigned => "uint64",
+        }
+    }
 }
 
 /// One file holding a run of the samples, from byte `start` on.
@@ -714,7 +788,14 @@ pub(super) fn read_samples(
     dims: Dims,
     limit: MemoryLimit,
 ) -> Result<crate::grid::VolumeData> {
-    by_type!(s.ty, read_typed(files, pieces, s, dims, limit))
+    let Some(int64) = s.int64 else {
+        return by_type!(s.ty, read_typed(files, pieces, s, dims, limit));
+    };
+    Int64::check(dims.iter().product(), limit)?;
+    match read_typed::<f64>(files, pieces, s, dims, limit)? {
+        VolumeData::F64(v) => int64.narrow(v, s.encoding == Encoding::Ascii),
+        other => Ok(other),
+    }
 }
 
 fn read_typed<T: Sample>(
@@ -1135,13 +1216,16 @@ fn nrrd_fields(head: &Head) -> Result<Fields> {
 }
 
 /// The NRRD type spellings (NRRD format spec, "type").
-fn nrrd_type(s: &str) -> Result<ScalarType> {
+/// The sample type a NRRD `type` names, and whether it is a 64-bit
+/// integer (then read as [`ScalarType::F64`]-wide samples).
+fn nrrd_type(s: &str) -> Result<(ScalarType, Option<Int64>)> {
     let s = s
         .split_whitespace()
         .collect::<Vec<_>>()
         .join(" ")
         .to_lowercase();
-    Ok(match s.as_str() {
+    let wide = |int64| Ok((ScalarType::F64, Some(int64)));
+    let ty = match s.as_str() {
         "signed char" | "int8" | "int8_t" => ScalarType::I8,
         "uchar" | "unsigned char" | "uint8" | "uint8_t" => ScalarType::U8,
         "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => {
@@ -1160,19 +1244,14 @@ fn nrrd_type(s: &str) -> Result<ScalarType> {
         | "signed long long"
         | "signed long long int"
         | "int64"
-        | "int64_t"
-        | "ulonglong"
-        | "unsigned long long"
-        | "unsigned long long int"
-        | "uint64"
-        | "uint64_t"
-        | "block" => {
-            return Err(unsupported(format!(
-                "NRRD type {s:?} (64-bit integers and blocks)"
-            )));
+        | "int64_t" => return wide(Int64::Signed),
+        "ulonglong" | "unsigned long long" | "unsigned long long int" | "uint64" | "uint64_t" => {
+            return wide(Int64::Unsigned);
         }
+        "block" => return Err(unsupported("NRRD type \"block\"")),
         _ => return Err(invalid(format!("unknown NRRD type {s:?}"))),
-    })
+    };
+    Ok((ty, None))
 }
 
 fn nrrd_encoding(s: &str) -> Result<Encoding> {
@@ -1395,7 +1474,7 @@ fn parse_int(what: &str, s: &str) -> Result<i64> {
 
 fn read_nrrd(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVolume> {
     let f = nrrd_fields(&read_head(files, path)?)?;
-    let ty = nrrd_type(f.require("type", "type")?)?;
+    let (ty, int64) = nrrd_type(f.require("type", "type")?)?;
     let dimension = parse_int("dimension", f.require("dimension", "dimension")?)?;
     let shape = NrrdShape::new(&f, dimension)?;
     let dims = checked_dims(shape.sizes3(), ty, limit)?;
@@ -1432,6 +1511,7 @@ fn read_nrrd(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVol
         line_skip,
         file_skip,
         decoded_skip,
+        int64,
     };
     let data = read_samples(files, &pieces, &storage, dims, limit)?;
     let space = f.get(&["space"]).and_then(AnatomicalSpace::from_nrrd);
@@ -1476,8 +1556,10 @@ fn meta_fields(head: &Head) -> Result<Fields> {
     Ok(f)
 }
 
-fn meta_type(s: &str) -> Result<ScalarType> {
-    Ok(match s.to_uppercase().as_str() {
+/// The sample type a MetaImage `ElementType` names, and whether it is a
+/// 64-bit integer (then read as [`ScalarType::F64`]-wide samples).
+fn meta_type(s: &str) -> Result<(ScalarType, Option<Int64>)> {
+    let ty = match s.to_uppercase().as_str() {
         "MET_CHAR" => ScalarType::I8,
         "MET_UCHAR" => ScalarType::U8,
         "MET_SHORT" => ScalarType::I16,
@@ -1486,11 +1568,14 @@ fn meta_type(s: &str) -> Result<ScalarType> {
         "MET_UINT" => ScalarType::U32,
         "MET_FLOAT" => ScalarType::F32,
         "MET_DOUBLE" => ScalarType::F64,
+        "MET_LONG_LONG" => return Ok((ScalarType::F64, Some(Int64::Signed))),
+        "MET_ULONG_LONG" => return Ok((ScalarType::F64, Some(Int64::Unsigned))),
         t if t.starts_with("MET_") => {
             return Err(unsupported(format!("MetaImage element type {s}")));
         }
         _ => return Err(invalid(format!("unknown MetaImage element type {s:?}"))),
-    })
+    };
+    Ok((ty, None))
 }
 
 fn meta_bool(what: &str, s: Option<&str>, default: bool) -> Result<bool> {
@@ -1543,7 +1628,7 @@ fn read_metaimage(files: &Files, path: &Path, limit: MemoryLimit) -> Result<Scal
     {
         return Err(unsupported(format!("{c} channels per element")));
     }
-    let ty = meta_type(f.require("elementtype", "ElementType")?)?;
+    let (ty, int64) = meta_type(f.require("elementtype", "ElementType")?)?;
     let dims = checked_dims(
         sizes3("DimSize", f.require("dimsize", "DimSize")?)?,
         ty,
@@ -1581,6 +1666,7 @@ fn read_metaimage(files: &Files, path: &Path, limit: MemoryLimit) -> Result<Scal
         line_skip: 0,
         file_skip,
         decoded_skip: 0,
+        int64,
     };
     let data = read_samples(files, &pieces, &storage, dims, limit)?;
     // ITK writes `AnatomicalOrientation` (MetaIO's `???` means unknown) and
@@ -1776,11 +1862,7 @@ fn read_npy(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVolu
     let n = dims.iter().product::<usize>();
     match h.kind {
         // The 64-bit samples and their narrowed copy, at most as wide.
-        NpyKind::Int64 | NpyKind::UInt64 => limit.check(
-            &format!("{n} 64-bit integer samples, narrowed"),
-            n as u128,
-            16,
-        )?,
+        NpyKind::Int64 | NpyKind::UInt64 => Int64::check(n, limit)?,
         // The halves and their float32 copy.
         NpyKind::Half => limit.check(&format!("{n} float16 samples, widened"), n as u128, 6)?,
         NpyKind::Plain | NpyKind::Bool => {}
@@ -1797,12 +1879,8 @@ fn read_npy(files: &Files, path: &Path, limit: MemoryLimit) -> Result<ScalarVolu
             v.iter_mut().for_each(|b| *b = u8::from(*b != 0));
             VolumeData::U8(v)
         }
-        (NpyKind::Int64, VolumeData::F64(v)) => {
-            VolumeData::from_i64(v.into_iter().map(|x| x.to_bits() as i64).collect())
-        }
-        (NpyKind::UInt64, VolumeData::F64(v)) => {
-            VolumeData::from_u64(v.into_iter().map(f64::to_bits).collect())
-        }
+        (NpyKind::Int64, VolumeData::F64(v)) => Int64::Signed.narrow(v, false)?,
+        (NpyKind::UInt64, VolumeData::F64(v)) => Int64::Unsigned.narrow(v, false)?,
         (NpyKind::Half, VolumeData::U16(v)) => VolumeData::F32(
             v.par_iter()
                 .map(|&b| half::f16::from_bits(b).to_f32())
@@ -1955,14 +2033,21 @@ mod tests {
             ("float", ScalarType::F32),
             ("double", ScalarType::F64),
         ] {
-            assert_eq!(nrrd_type(s).unwrap(), t, "{s}");
+            assert_eq!(nrrd_type(s).unwrap(), (t, None), "{s}");
         }
-        for s in ["long long", "int64", "uint64_t", "block"] {
-            assert!(
-                matches!(nrrd_type(s), Err(VoxkitError::Unsupported(_))),
-                "{s}"
-            );
+        for (s, int64) in [
+            ("long long", Int64::Signed),
+            ("int64", Int64::Signed),
+            ("signed  long long int", Int64::Signed),
+            ("uint64_t", Int64::Unsigned),
+            ("unsigned long long", Int64::Unsigned),
+        ] {
+            assert_eq!(nrrd_type(s).unwrap(), (ScalarType::F64, Some(int64)), "{s}");
         }
+        assert!(matches!(
+            nrrd_type("block"),
+            Err(VoxkitError::Unsupported(_))
+        ));
         assert!(matches!(nrrd_type("char"), Err(VoxkitError::Invalid(_))));
     }
 

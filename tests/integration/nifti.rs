@@ -126,6 +126,31 @@ fn edited(dir: &Path, name: &str, edit: impl FnOnce(&mut Vec<u8>)) -> PathBuf {
     p
 }
 
+/// An `INT64` / `UINT64` image (`u8_sform.nii`'s samples widened) reads
+/// back as the original: the same values, in the narrowest type.
+#[test]
+fn sixty_four_bit_integers_read_narrowed() {
+    let dir = temp_dir("int64");
+    let src = std::fs::read(corpus().join("u8_sform.nii")).unwrap();
+    let good = read_volume(&corpus().join("u8_sform.nii"), MemoryLimit::DEFAULT).unwrap();
+    let offset = f32::from_le_bytes(src[108..112].try_into().unwrap()) as usize;
+    for code in [1024i16, 1280] {
+        let mut b = src[..offset].to_vec();
+        b[70..72].copy_from_slice(&code.to_le_bytes());
+        b[72..74].copy_from_slice(&64i16.to_le_bytes());
+        for &x in &src[offset..offset + good.len()] {
+            b.extend_from_slice(&u64::from(x).to_le_bytes());
+        }
+        let p = dir.join(format!("wide{code}.nii"));
+        std::fs::write(&p, b).unwrap();
+        assert_eq!(
+            read_volume(&p, MemoryLimit::DEFAULT).unwrap(),
+            good,
+            "{code}"
+        );
+    }
+}
+
 #[test]
 fn bad_headers_are_typed_errors_naming_the_file() {
     let dir = temp_dir("bad");

@@ -1036,10 +1036,15 @@ fn nrrd_bad_files() {
     );
     expect_unsupported(&nrrd_with(
         &dir,
-        "int64.nrrd",
-        &swap("short", "int64"),
+        "block.nrrd",
+        &swap("short", "block"),
         &raw,
     ));
+    // 64-bit samples are 8 bytes each: the short data is named.
+    expect_invalid(
+        &nrrd_with(&dir, "int64.nrrd", &swap("short", "int64"), &raw),
+        &["210", "840"],
+    );
     // Raw bytes declared as bzip2: a stream error naming the encoding.
     expect_invalid(
         &nrrd_with(
@@ -1239,8 +1244,8 @@ fn metaimage_and_npy_bad_files() {
         &raw,
     ));
     expect_unsupported(&mha(
-        "long64.mha",
-        &head.replace("MET_SHORT", "MET_LONG_LONG"),
+        "array.mha",
+        &head.replace("MET_SHORT", "MET_SHORT_ARRAY"),
         &raw,
     ));
     expect_invalid(
@@ -1484,4 +1489,131 @@ fn ct_head_is_upright() {
     .unwrap();
     let slice_z = |k: f64| (a.frame.origin + a.frame.axes * DVec3::new(0.0, 0.0, k)).z;
     assert!(slice_z(0.0) > slice_z(92.0));
+}
+
+/// 64-bit integer samples in NRRD (raw, gzip, text; either byte order) and
+/// MetaImage, signed and unsigned, read back exactly in the narrowest type
+/// that holds them all, as NumPy's 64-bit arrays are.
+#[test]
+fn sixty_four_bit_integers_read_narrowed_and_exact() {
+    let dir = temp_dir("int64");
+    let mut rng = ChaCha8Rng::seed_from_u64(64);
+    // (values, narrowest type): each set's extremes pick the type.
+    let sets: Vec<(Vec<i128>, ScalarType)> = vec![
+        ((0..N).map(|i| (i % 200) as i128).collect(), ScalarType::U8),
+        (
+            (0..N).map(|i| i as i128 * 300 - 9_000).collect(),
+            ScalarType::I16,
+        ),
+        (
+            (0..N)
+                .map(|_| rng.random_range(-(1i128 << 31)..1 << 31))
+                .collect(),
+            ScalarType::I32,
+        ),
+        (
+            (0..N).map(|i| i as i128 * (1 << 20)).collect(),
+            ScalarType::U32,
+        ),
+    ];
+    for (k, (vals, ty)) in sets.iter().enumerate() {
+        let want: Vec<f64> = vals.iter().map(|&v| v as f64).collect();
+        let signed = vals.iter().any(|&v| v < 0);
+        for (name, unsigned) in [("int64", false), ("uint64", true)] {
+            if unsigned && signed {
+                continue;
+            }
+            for big in [false, true] {
+                let bytes: Vec<u8> = vals
+                    .iter()
+                    .flat_map(|&v| {
+                        let v = v as i64;
+                        if big {
+                            v.to_be_bytes()
+                        } else {
+                            v.to_le_bytes()
+                        }
+                    })
+                    .collect();
+                let endian = if big { "big" } else { "little" };
+                let head = |enc: &str| {
+                    format!(
+                        "NRRD0004\ntype: {name}\ndimension: 3\nsizes: 5 3 7\nendian: {endian}\nencoding: {enc}\n\n"
+                    )
+                };
+                let what = format!("set {k} {name} {endian}");
+                let p = dir.join(format!("raw{k}{name}{endian}.nrrd"));
+                write(&p, &[head("raw").as_bytes(), &bytes]);
+                let v = read_volume(&p, MemoryLimit::DEFAULT).unwrap();
+                assert_samples(&v, *ty, &want, &format!("{what} raw"));
+                let p = dir.join(format!("gz{k}{name}{endian}.nrrd"));
+                write(&p, &[head("gzip").as_bytes(), &gzip(&bytes)]);
+                let v = read_volume(&p, MemoryLimit::DEFAULT).unwrap();
+                assert_samples(&v, *ty, &want, &format!("{what} gzip"));
+                let elem = if unsigned {
+                    "MET_ULONG_LONG"
+                } else {
+                    "MET_LONG_LONG"
+                };
+                let msb = if big { "True" } else { "False" };
+                let p = dir.join(format!("m{k}{name}{endian}.mha"));
+                let mh = format!(
+                    "NDims = 3\nDimSize = 5 3 7\nElementType = {elem}\nBinaryDataByteOrderMSB = {msb}\nElementDataFile = LOCAL\n"
+                );
+                write(&p, &[mh.as_bytes(), &bytes]);
+                let v = read_volume(&p, MemoryLimit::DEFAULT).unwrap();
+                assert_samples(&v, *ty, &want, &format!("{what} MetaImage"));
+            }
+            let text: String = vals.iter().map(|v| format!("{v}\n")).collect();
+            let p = dir.join(format!("txt{k}{name}.nrrd"));
+            let head =
+                format!("NRRD0004\ntype: {name}\ndimension: 3\nsizes: 5 3 7\nencoding: ascii\n\n");
+            write(&p, &[head.as_bytes(), text.as_bytes()]);
+            let v = read_volume(&p, MemoryLimit::DEFAULT).unwrap();
+            assert_samples(&v, *ty, &want, &format!("set {k} {name} text"));
+        }
+    }
+    // Beyond 32 bits: float64, exact below 2^53.
+    let vals: Vec<i64> = (0..N as i64).map(|i| (i - 50) * (1 << 40)).collect();
+    let bytes: Vec<u8> = vals.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let p = dir.join("wide.nrrd");
+    write(
+        &p,
+        &[b"NRRD0004\ntype: long long\ndimension: 3\nsizes: 5 3 7\nendian: little\nencoding: raw\n\n", &bytes],
+    );
+    let want: Vec<f64> = vals.iter().map(|&v| v as f64).collect();
+    assert_samples(
+        &read_volume(&p, MemoryLimit::DEFAULT).unwrap(),
+        ScalarType::F64,
+        &want,
+        "wide",
+    );
+    // Text that a float64 cannot hold exactly, a fraction, or a negative
+    // unsigned sample: refused, naming the sample.
+    for (name, bad) in [
+        ("int64", "9007199254740993"),
+        ("int64", "-9007199254740992"),
+        ("int64", "2.5"),
+        ("uint64", "-1"),
+        ("int64", "nan"),
+    ] {
+        let text: String = (0..N)
+            .map(|i| {
+                if i == 17 {
+                    format!("{bad}\n")
+                } else {
+                    "1\n".into()
+                }
+            })
+            .collect();
+        let p = dir.join(format!("bad{name}{}.nrrd", bad.len()));
+        let head =
+            format!("NRRD0004\ntype: {name}\ndimension: 3\nsizes: 5 3 7\nencoding: ascii\n\n");
+        write(&p, &[head.as_bytes(), text.as_bytes()]);
+        match read_volume(&p, MemoryLimit::DEFAULT) {
+            Err(VoxkitError::Unsupported(m)) => assert!(m.contains("64-bit"), "{bad}: {m}"),
+            Err(VoxkitError::Invalid(m)) => assert!(bad == "nan" && !m.is_empty(), "{bad}: {m}"),
+            other => panic!("{name} {bad}: {other:?}"),
+        }
+    }
 }
