@@ -586,11 +586,7 @@ impl Int64 {
                     "{} text sample {x}: 64-bit integers are read from text only as integers \
                      below 2^53 in magnitude{}",
                     self.name(),
-                    if self == Int64::Unsigned {
-                        ", not negative"
-                    } else {
-                        ""
-                    }
+                    if signed { "" } else { ", not negative" }
                 )));
             }
             // Integers below 2^53 in magnitude: the casts are exact.
@@ -792,10 +788,8 @@ pub(super) fn read_samples(
         return by_type!(s.ty, read_typed(files, pieces, s, dims, limit));
     };
     Int64::check(dims.iter().product(), limit)?;
-    match read_typed::<f64>(files, pieces, s, dims, limit)? {
-        VolumeData::F64(v) => int64.narrow(v, s.encoding == Encoding::Ascii),
-        other => Ok(other),
-    }
+    let v = read_vec::<f64>(files, pieces, s, dims, limit)?;
+    int64.narrow(v, s.encoding == Encoding::Ascii)
 }
 
 fn read_typed<T: Sample>(
@@ -805,6 +799,17 @@ fn read_typed<T: Sample>(
     dims: Dims,
     limit: MemoryLimit,
 ) -> Result<crate::grid::VolumeData> {
+    read_vec::<T>(files, pieces, s, dims, limit).map(T::wrap)
+}
+
+/// The samples of `pieces`, in file order.
+fn read_vec<T: Sample>(
+    files: &Files,
+    pieces: &[Piece],
+    s: &Storage,
+    dims: Dims,
+    limit: MemoryLimit,
+) -> Result<Vec<T>> {
     let n: usize = dims.iter().product();
     let per = n / pieces.len().max(1);
     if per * pieces.len() != n {
@@ -817,7 +822,7 @@ fn read_typed<T: Sample>(
     for p in pieces {
         read_piece(files, p, s, per, &mut out)?;
     }
-    Ok(T::wrap(out))
+    Ok(out)
 }
 
 /// An empty vector with room for `n` samples; an allocation the system
@@ -1215,9 +1220,9 @@ fn nrrd_fields(head: &Head) -> Result<Fields> {
     Ok(f)
 }
 
-/// The NRRD type spellings (NRRD format spec, "type").
-/// The sample type a NRRD `type` names, and whether it is a 64-bit
-/// integer (then read as [`ScalarType::F64`]-wide samples).
+/// The sample type a NRRD `type` names, in any of its spellings (NRRD
+/// format spec, "type"), and whether it is a 64-bit integer (then read as
+/// [`ScalarType::F64`]-wide samples).
 fn nrrd_type(s: &str) -> Result<(ScalarType, Option<Int64>)> {
     let s = s
         .split_whitespace()
