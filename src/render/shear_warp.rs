@@ -236,6 +236,15 @@ struct TfTable {
     /// (`TF_TABLE + 1` counts): entries `e0..=e1` are all transparent
     /// where the counts at `e0` and `e1 + 1` agree.
     opaque_before: Vec<u32>,
+    /// Whether every entry's colour is a grey (`r = g = b`, bit for bit),
+    /// as a transfer function without colours gives: compositing then
+    /// blends one colour channel and copies it to the others, the same
+    /// sums with a third of the colour work.
+    grey: bool,
+    /// Where grey, per entry `[ln(1 − τ), grey]`: the half of each entry
+    /// the grey blend reads, 32 KiB, which stays in the first-level cache
+    /// where the full entries (64 KiB) did not; empty otherwise.
+    pairs: Vec<[f32; 2]>,
 }
 
 impl TfTable {
@@ -247,7 +256,7 @@ impl TfTable {
         let scale = (TF_TABLE - 1) as f32 / span;
         let value = |e: usize| lo + e as f32 / scale;
         let tau: Vec<f32> = (0..TF_TABLE).map(|e| tf.opacity(value(e))).collect();
-        let entries = tau
+        let entries: Vec<[f32; 4]> = tau
             .iter()
             .enumerate()
             .map(|(e, &t)| {
@@ -266,11 +275,21 @@ impl TfTable {
                 Some(*n)
             }))
             .collect();
+        let grey = entries
+            .iter()
+            .all(|&[_, r, g, b]| r.to_bits() == g.to_bits() && r.to_bits() == b.to_bits());
+        let pairs = if grey {
+            entries.iter().map(|&[ln, c, _, _]| [ln, c]).collect()
+        } else {
+            Vec::new()
+        };
         TfTable {
             lo,
             scale,
             entries,
             opaque_before,
+            grey,
+            pairs,
         }
     }
 
@@ -447,7 +466,8 @@ impl Accumulate for MipBand {
 /// `α > 0`, and the stretch (in reference lengths) per pixel.
 struct CompositeBand<'a> {
     w: usize,
-    /// Red, green, blue (premultiplied) and opacity.
+    /// Red, green, blue (premultiplied) and opacity; green and blue empty
+    /// where the table is grey (red stands for all three).
     rgba: [Vec<f32>; 4],
     q: Vec<u16>,
     y: Vec<f32>,
@@ -469,8 +489,10 @@ impl CompositeBand<'_> {
     /// Front-to-back over the pixels `o..o + vals.len()` (at most a
     /// [`CHUNK`]; lane by lane: every pixel's chain is its own; a pixel past
     /// [`EARLY_TERMINATION`] takes `α = 0`, which adds exactly nothing).
+    /// `GREY`: the table is grey ([`TfTable::grey`]), and only red and
+    /// opacity are kept.
     #[inline(always)]
-    fn blend(&mut self, o: usize, vals: &[f32], q: u16) {
+    fn blend<const GREY: bool>(&mut self, o: usize, vals: &[f32], q: u16) {
         let n = vals.len().min(CHUNK);
         let t = self.table;
         // The table's entries first (loads by index), then the arithmetic
@@ -479,23 +501,34 @@ impl CompositeBand<'_> {
         #[cfg(target_arch = "x86_64")]
         let looked_up = self.avx2 && {
             // SAFETY: `avx2` is set only where the CPU has AVX2.
-            unsafe { lookup_avx2(t, &vals[..n], &mut ln_tau, &mut col) };
+            unsafe {
+                if GREY {
+                    lookup_grey_avx2(t, &vals[..n], &mut ln_tau, &mut col[0]);
+                } else {
+                    lookup_avx2(t, &vals[..n], &mut ln_tau, &mut col);
+                }
+            }
             true
         };
         #[cfg(not(target_arch = "x86_64"))]
         let looked_up = false;
         if !looked_up {
             for (k, &s) in vals[..n].iter().enumerate() {
-                [ln_tau[k], col[0][k], col[1][k], col[2][k]] = t.entries[t.entry(s)];
+                if GREY {
+                    [ln_tau[k], col[0][k]] = t.pairs[t.entry(s)];
+                } else {
+                    [ln_tau[k], col[0][k], col[1][k], col[2][k]] = t.entries[t.entry(s)];
+                }
             }
         }
         let [r, g, b, a] = &mut self.rgba;
-        let (r, g, b, a) = (
-            &mut r[o..o + n],
-            &mut g[o..o + n],
-            &mut b[o..o + n],
-            &mut a[o..o + n],
-        );
+        let (r, a) = (&mut r[o..o + n], &mut a[o..o + n]);
+        // Grey: green and blue are empty, and never touched.
+        let (g, b) = if GREY {
+            (&mut [][..], &mut [][..])
+        } else {
+            (&mut g[o..o + n], &mut b[o..o + n])
+        };
         let (qs, ys) = (&mut self.q[o..o + n], &self.y[o..o + n]);
         for k in 0..n {
             // `τ ≥ 1` exactly where the entry holds `ln(1 − τ) = −∞`; any
@@ -509,8 +542,10 @@ impl CompositeBand<'_> {
             let alpha = if a[k] < EARLY_TERMINATION { alpha } else { 0.0 };
             let wgt = (1.0 - a[k]) * alpha;
             r[k] += wgt * col[0][k];
-            g[k] += wgt * col[1][k];
-            b[k] += wgt * col[2][k];
+            if !GREY {
+                g[k] += wgt * col[1][k];
+                b[k] += wgt * col[2][k];
+            }
             a[k] += wgt;
             qs[k] = if qs[k] == u16::MAX && alpha > 0.0 {
                 q
@@ -523,11 +558,10 @@ impl CompositeBand<'_> {
 
 /// The table's entries for `vals` (at most a [`CHUNK`]) as the scalar
 /// loop of [`CompositeBand::blend`] reads them, eight lanes at a time
-/// without gathers: the entry index by the same `f32` operations, clamped
-/// as the scalar's saturating cast and `min` clamp it (NaN and negatives
-/// to entry 0, all beyond the table to its last), then each entry's 16
-/// bytes by one load, two entries to a register (lanes `i + k` and
-/// `i + k + 4`), and a 4×4 transpose within each 128-bit half puts
+/// without gathers: the entry index as the scalar's ([`entries_avx2`]),
+/// then each entry's 16 bytes by one load, two entries to a register
+/// (lanes `i + k` and `i + k + 4`), and a 4×4 transpose within each
+/// 128-bit half puts
 /// `ln(1 − τ)`, `r`, `g`, `b` of the eight samples in order. Lanes from
 /// `vals.len()` to the next multiple of eight are overwritten as scratch.
 /// Called only where the CPU has AVX2.
@@ -539,26 +573,17 @@ fn lookup_avx2(t: &TfTable, vals: &[f32], ln_tau: &mut [f32; CHUNK], col: &mut [
     let mut padded = [0f32; CHUNK];
     padded[..n].copy_from_slice(&vals[..n]);
     let mut idx = [0u32; CHUNK];
-    let (lo, scale, half) = (
-        _mm256_set1_ps(t.lo),
-        _mm256_set1_ps(t.scale),
-        _mm256_set1_ps(0.5),
-    );
-    let (zero, last) = (_mm256_setzero_ps(), _mm256_set1_ps((TF_TABLE - 1) as f32));
     assert!(t.entries.len() == TF_TABLE);
     let entries = t.entries.as_ptr().cast::<f32>();
     let [rs, gs, bs] = col;
     for i in (0..n).step_by(8) {
         // SAFETY: `i` is a multiple of 8 below `n ≤ CHUNK = 32`, so
         // `i + 8 ≤ CHUNK` and every load and store stays in the arrays;
-        // each index is clamped to `0..TF_TABLE` before the conversion, so
-        // each entry's 16 bytes lie in the table (asserted length).
+        // each index is in `0..TF_TABLE` ([`entries_avx2`]), so each
+        // entry's 16 bytes lie in the table (asserted length).
         unsafe {
-            let s = _mm256_loadu_ps(padded.as_ptr().add(i));
-            let x = _mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(s, lo), scale), half);
-            // `max` yields its second operand for a NaN: entry 0.
-            let x = _mm256_min_ps(_mm256_max_ps(x, zero), last);
-            _mm256_storeu_si256(idx.as_mut_ptr().add(i).cast(), _mm256_cvttps_epi32(x));
+            let at = entries_avx2(t, _mm256_loadu_ps(padded.as_ptr().add(i)));
+            _mm256_storeu_si256(idx.as_mut_ptr().add(i).cast(), at);
             let entry = |k: usize| _mm_loadu_ps(entries.add(4 * idx[i + k] as usize));
             let pair = |k: usize| _mm256_set_m128(entry(k + 4), entry(k));
             let (a, b, c, d) = (pair(0), pair(1), pair(2), pair(3));
@@ -580,6 +605,73 @@ fn lookup_avx2(t: &TfTable, vals: &[f32], ln_tau: &mut [f32; CHUNK], col: &mut [
     }
 }
 
+/// [`TfTable::entry`] of eight samples by the same `f32` operations,
+/// clamped as its saturating cast and `min` clamp it: NaN and negatives to
+/// entry 0, all beyond the table to its last. Every lane is in
+/// `0..TF_TABLE`. Called only where the CPU has AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn entries_avx2(t: &TfTable, s: std::arch::x86_64::__m256) -> std::arch::x86_64::__m256i {
+    use std::arch::x86_64::*;
+    let (lo, scale, half) = (
+        _mm256_set1_ps(t.lo),
+        _mm256_set1_ps(t.scale),
+        _mm256_set1_ps(0.5),
+    );
+    let (zero, last) = (_mm256_setzero_ps(), _mm256_set1_ps((TF_TABLE - 1) as f32));
+    let x = _mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(s, lo), scale), half);
+    // `max` yields its second operand for a NaN: entry 0.
+    let x = _mm256_min_ps(_mm256_max_ps(x, zero), last);
+    _mm256_cvttps_epi32(x)
+}
+
+/// [`lookup_avx2`] for a grey table ([`TfTable::grey`]): `ln(1 − τ)` and
+/// the one colour of each entry from the table's
+/// [`pairs`](TfTable::pairs), one eight-byte load an entry, two entries
+/// to a 128-bit half, and one shuffle each for the two values (lanes in
+/// order: the halves hold entries `i..i + 4` and `i + 4..i + 8`). Faster
+/// than two gathers of eight lanes on the Emerald Rapids VM. Lanes from
+/// `vals.len()` to the next multiple of eight are overwritten as scratch.
+/// Called only where the CPU has AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn lookup_grey_avx2(t: &TfTable, vals: &[f32], ln_tau: &mut [f32; CHUNK], grey: &mut [f32; CHUNK]) {
+    use std::arch::x86_64::*;
+    let n = vals.len().min(CHUNK);
+    let mut padded = [0f32; CHUNK];
+    padded[..n].copy_from_slice(&vals[..n]);
+    assert!(t.pairs.len() == TF_TABLE);
+    let pairs = t.pairs.as_ptr().cast::<f32>();
+    let mut idx = [0u32; CHUNK];
+    for i in (0..n).step_by(8) {
+        // SAFETY: `i` is a multiple of 8 below `n ≤ CHUNK = 32`, so
+        // `i + 8 ≤ CHUNK` and every load and store stays in the arrays;
+        // each index is in `0..TF_TABLE` ([`entries_avx2`]), so the eight
+        // bytes at float `2·index` lie in the pairs (asserted length).
+        unsafe {
+            let at = entries_avx2(t, _mm256_loadu_ps(padded.as_ptr().add(i)));
+            _mm256_storeu_si256(idx.as_mut_ptr().add(i).cast(), at);
+            // Entries k and k + 1 in one 128-bit register.
+            let two = |k: usize| {
+                let lo = _mm_load_sd(pairs.add(2 * idx[i + k] as usize).cast());
+                _mm_castpd_ps(_mm_loadh_pd(
+                    lo,
+                    pairs.add(2 * idx[i + k + 1] as usize).cast(),
+                ))
+            };
+            let (x, y) = (
+                _mm256_set_m128(two(4), two(0)),
+                _mm256_set_m128(two(6), two(2)),
+            );
+            let ln = _mm256_shuffle_ps::<0b10_00_10_00>(x, y);
+            let c = _mm256_shuffle_ps::<0b11_01_11_01>(x, y);
+            _mm256_storeu_ps(ln_tau.as_mut_ptr().add(i), ln);
+            _mm256_storeu_ps(grey.as_mut_ptr().add(i), c);
+        }
+    }
+}
+
 impl Accumulate for CompositeBand<'_> {
     #[inline(always)]
     fn add(&mut self, row: usize, lo: usize, [v0, v1]: [&[f32]; 2], fb: f32, q: u16) -> u64 {
@@ -596,7 +688,11 @@ impl Accumulate for CompositeBand<'_> {
             for ((v, &a), &b) in vals.iter_mut().zip(&v0[x0 - lo..]).zip(&v1[x0 - lo..]) {
                 *v = a + fb * (b - a);
             }
-            self.blend(row * self.w + x0, vals, q);
+            if self.table.grey {
+                self.blend::<true>(row * self.w + x0, vals, q);
+            } else {
+                self.blend::<false>(row * self.w + x0, vals, q);
+            }
             n += (x1 - x0) as u64;
             let o = row * self.w;
             self.done[row * chunks + c] = self.rgba[3][o + c0..o + c1]
@@ -629,6 +725,7 @@ pub(crate) fn render(
     let tuning = Tuning {
         slab_cap: SLAB_CAP,
         skip: true,
+        grey: true,
         #[cfg(target_arch = "x86_64")]
         avx2: std::arch::is_x86_feature_detected!("avx2"),
         #[cfg(target_arch = "x86_64")]
@@ -646,6 +743,9 @@ struct Tuning {
     /// below every running maximum that reads them; for compositing,
     /// those the transfer function makes transparent.
     skip: bool,
+    /// Blend one colour channel where the table is grey
+    /// ([`TfTable::grey`]).
+    grey: bool,
     #[cfg(target_arch = "x86_64")]
     avx2: bool,
     /// The shear compiled for AVX-512 (with `avx2`) and its perspective
@@ -657,11 +757,16 @@ struct Tuning {
 /// The bytes shear-warp holds beside the volume and the image: the
 /// intermediate image (and its copy for the warp), the per-slice column tables (and brick starts) and
 /// each thread's rows, column floors and slab.
-fn working_bytes(f: &Factor, composite: bool, threads: usize, slab_cap: usize) -> u128 {
+fn working_bytes(f: &Factor, table: Option<&TfTable>, threads: usize, slab_cap: usize) -> u128 {
     let (w, h, n) = (f.w as u128, f.h as u128, f.n as u128);
-    // MIP: maximum and slice; compositing: colour and opacity, slice,
-    // stretch, seen (and a flag per chunk).
-    let per_pixel = if composite { 24 } else { 6 };
+    let composite = table.is_some();
+    // MIP: maximum and slice; compositing: colour (one channel if grey)
+    // and opacity, slice, stretch, seen (and a flag per chunk).
+    let per_pixel = match table {
+        None => 6,
+        Some(t) if t.grey => 16,
+        Some(_) => 24,
+    };
     let row = f.dims[f.a] as u128 + 1;
     let slab = (slab_cap as u128).min(8 * f.dims[f.b] as u128 * row);
     let per_thread = 4 * (3 * w + 2 * row + slab);
@@ -702,12 +807,16 @@ fn render_with(
     }
     let composite = vopts.mode == VolumeMode::Composite;
     let threads = rayon::current_num_threads();
+    let table = composite.then(|| {
+        let mut t = TfTable::new(&vopts.transfer, vopts.window);
+        t.grey &= tuning.grey;
+        t
+    });
     opts.limit.check(
         "shear-warp intermediate image",
-        working_bytes(&f, composite, threads, slab_cap),
+        working_bytes(&f, table.as_ref(), threads, slab_cap),
         1,
     )?;
-    let table = composite.then(|| TfTable::new(&vopts.transfer, vopts.window));
     let columns: Vec<Columns> = (0..f.n)
         .into_par_iter()
         .map(|q| Columns::of(&f, q))
@@ -794,7 +903,10 @@ impl<'a> Intermediate<'a> {
                 (0..bands)
                     .map(|band| CompositeBand {
                         w: f.w,
-                        rgba: std::array::from_fn(|_| vec![0.0; len(band)]),
+                        rgba: std::array::from_fn(|c| {
+                            let kept = !(table.grey && (c == 1 || c == 2));
+                            vec![0.0; if kept { len(band) } else { 0 }]
+                        }),
                         q: vec![u16::MAX; len(band)],
                         y: vec![0.0; len(band)],
                         seen: vec![false; len(band)],
@@ -1560,7 +1672,12 @@ fn composite_source(bands: &[CompositeBand], dims: (usize, usize)) -> WarpSource
     WarpSource::of(dims, |bd, r, i| {
         let (b, o) = (&bands[bd], r * dims.0 + i);
         let seen = b.seen[o];
-        let ch = |k: usize| if seen { b.rgba[k][o] } else { 0.0 };
+        // A grey table kept red alone.
+        let grey = b.table.grey;
+        let ch = |k: usize| {
+            let k = if grey && k < 3 { 0 } else { k };
+            if seen { b.rgba[k][o] } else { 0.0 }
+        };
         ([ch(0), ch(1), ch(2), ch(3), f32::from(seen)], b.q[o])
     })
 }
@@ -1971,9 +2088,10 @@ mod tests {
     }
 
     /// Reading a layer's rows brick by brick (slabs) or row by row, in
-    /// portable, AVX2 or AVX-512 registers, gives the same image, bit for bit,
-    /// whatever fits under the cap: every principal axis, both directions,
-    /// near and far eyes.
+    /// portable, AVX2 or AVX-512 registers, and compositing a grey table
+    /// in one colour channel or in three, gives the same image, bit for
+    /// bit, whatever fits under the cap: every principal axis, both
+    /// directions, near and far eyes, grey and coloured tables.
     #[test]
     fn tunings_give_the_same_image() {
         #[cfg(target_arch = "x86_64")]
@@ -1984,6 +2102,7 @@ mod tests {
         let tuning = |slab_cap: usize, _avx2: bool| Tuning {
             slab_cap,
             skip: slab_cap > 0 || _avx2,
+            grey: slab_cap > 0 || _avx2,
             #[cfg(target_arch = "x86_64")]
             avx2: _avx2 && wide,
             #[cfg(target_arch = "x86_64")]
@@ -2002,11 +2121,20 @@ mod tests {
             ..RenderOptions::default()
         };
         let mut slabbed = 0;
+        let coloured = TransferFunction::parse("0.2:0,0.5:0.3:#2040ff,0.9:0.8:#ff8000").unwrap();
+        let modes = [
+            opts(VolumeMethod::ShearWarp, VolumeMode::Mip, (0.2, 0.9)),
+            opts(VolumeMethod::ShearWarp, VolumeMode::Composite, (0.2, 0.9)),
+            VolumeOptions {
+                transfer: coloured,
+                ..opts(VolumeMethod::ShearWarp, VolumeMode::Composite, (0.2, 0.9))
+            },
+        ];
         for t in 0..24 {
             let cam = random_camera(&mut rng, c, 45.0..160.0, t % 2 == 0, 70.0, 50.0);
-            for mode in [VolumeMode::Mip, VolumeMode::Composite] {
-                let o = opts(VolumeMethod::ShearWarp, mode, (0.2, 0.9));
-                let Some((rows, _)) = render_with(&s, &cam, &ro, &o, tuning(0, false)).unwrap()
+            for o in &modes {
+                let mode = o.mode;
+                let Some((rows, _)) = render_with(&s, &cam, &ro, o, tuning(0, false)).unwrap()
                 else {
                     continue;
                 };
@@ -2017,7 +2145,7 @@ mod tests {
                     (SLAB_CAP, true),
                 ] {
                     let t = tuning(cap, avx2);
-                    let (img, _) = render_with(&s, &cam, &ro, &o, t).unwrap().unwrap();
+                    let (img, _) = render_with(&s, &cam, &ro, o, t).unwrap().unwrap();
                     assert_eq!(img, rows, "{cam:?} {mode:?} {t:?}");
                 }
                 slabbed += 1;
@@ -2109,9 +2237,10 @@ mod tests {
         );
     }
 
-    /// The table look-up in AVX2 registers reads the entries the scalar one reads,
-    /// for every length up to a chunk and samples of every kind: inside
-    /// the table, on its ends, beyond them, ±∞, NaN, ±0, subnormal.
+    /// The table look-ups in AVX2 registers (full, and grey from the
+    /// pairs) read the entries the scalar one reads, for every length up
+    /// to a chunk and samples of every kind: inside the table, on its
+    /// ends, beyond them, ±∞, NaN, ±0, subnormal.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn vector_lookup_is_the_scalar() {
@@ -2124,6 +2253,10 @@ mod tests {
         // Clear, partial and opaque (`ln(1 − τ) = −∞`) entries, coloured.
         let tf = TransferFunction::parse("-2:0,0:0.4:#2040ff,2:1,3:1:#ff0000,5:0.2").unwrap();
         let t = TfTable::new(&tf, window);
+        // The same without colours: grey.
+        let grey_tf = TransferFunction::parse("-2:0,0:0.4,2:1,3:1,5:0.2").unwrap();
+        let gt = TfTable::new(&grey_tf, window);
+        assert!(gt.grey && !t.grey);
         let special = [
             f32::NAN,
             f32::INFINITY,
@@ -2148,20 +2281,30 @@ mod tests {
                 })
                 .collect();
             let mut want = ([0f32; CHUNK], [[0f32; CHUNK]; 3]);
+            let mut want_grey = ([0f32; CHUNK], [0f32; CHUNK]);
             for (k, &s) in vals.iter().enumerate() {
                 let e = t.entry(s);
                 ends += usize::from(e == 0 || e == TF_TABLE - 1);
                 [want.0[k], want.1[0][k], want.1[1][k], want.1[2][k]] = t.entries[e];
+                let e = gt.entry(s);
+                [want_grey.0[k], want_grey.1[k]] = [gt.entries[e][0], gt.entries[e][1]];
             }
             let mut got = ([0f32; CHUNK], [[0f32; CHUNK]; 3]);
+            let mut grey = ([0f32; CHUNK], [0f32; CHUNK]);
             // SAFETY: AVX2 is detected above.
-            unsafe { lookup_avx2(&t, &vals, &mut got.0, &mut got.1) };
+            unsafe {
+                lookup_avx2(&t, &vals, &mut got.0, &mut got.1);
+                lookup_grey_avx2(&gt, &vals, &mut grey.0, &mut grey.1);
+            }
             // Lanes past `n` are scratch (the blend reads `..n`).
             let bits = |v: &[f32]| v[..n].iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&got.0), bits(&want.0), "{vals:?}");
             for c in 0..3 {
                 assert_eq!(bits(&got.1[c]), bits(&want.1[c]), "{vals:?}");
             }
+            // The grey look-up: the grey table's `ln(1 − τ)` and grey.
+            assert_eq!(bits(&grey.0), bits(&want_grey.0), "{vals:?}");
+            assert_eq!(bits(&grey.1), bits(&want_grey.1), "{vals:?}");
         }
         assert!(ends > 1_000, "{ends} samples at the table's ends");
     }
@@ -2208,7 +2351,10 @@ mod tests {
                 })
                 .collect();
             let tf = TransferFunction::ramp((0.0, 1.0));
-            let table = TfTable::new(&tf, (0.0, 1.0));
+            // Three colour channels of their own (a grey table's band keeps
+            // one; `tunings_give_the_same_image` checks that).
+            let mut table = TfTable::new(&tf, (0.0, 1.0));
+            table.grey = false;
             let comp: Vec<CompositeBand> = (0..bands)
                 .map(|bd| {
                     let n = w * rows(bd);
@@ -2766,6 +2912,7 @@ mod tests {
                 let tuning = |skip: bool, slab_cap: usize| Tuning {
                     slab_cap,
                     skip,
+                    grey: true,
                     #[cfg(target_arch = "x86_64")]
                     avx2: false,
                     #[cfg(target_arch = "x86_64")]
