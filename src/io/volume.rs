@@ -27,8 +27,10 @@
 //!   `fmt min max step [subdim]` (`%d`-style, e.g. `slice%03d.raw 1 93 1`).
 //!   Relative data paths are relative to the header's directory.
 //! - **MetaImage** `NDims = 3`, `DimSize`, `ElementType` `MET_CHAR` …
-//!   `MET_DOUBLE` and `MET_LONG_LONG`/`MET_ULONG_LONG` (narrowed as NRRD's
-//!   64-bit integers), `ElementSpacing` (else `ElementSize`),
+//!   `MET_DOUBLE`, `MET_LONG`/`MET_ULONG` (4 bytes, as MetaIO sizes them),
+//!   `MET_LONG_LONG`/`MET_ULONG_LONG` (narrowed as NRRD's 64-bit integers)
+//!   and each one's `_ARRAY` form with one channel, `ElementSpacing` (else
+//!   `ElementSize`),
 //!   `Offset`/`Position`/`Origin`, `TransformMatrix`/`Orientation`/`Rotation`
 //!   (its first three numbers are the direction of grid axis 0, as ITK
 //!   reads it), `BinaryDataByteOrderMSB`/`ElementByteOrderMSB`,
@@ -1563,14 +1565,19 @@ fn meta_fields(head: &Head) -> Result<Fields> {
 
 /// The sample type a MetaImage `ElementType` names, and whether it is a
 /// 64-bit integer (then read as [`ScalarType::F64`]-wide samples).
+/// `MET_LONG` and `MET_ULONG` take 4 bytes, as MetaIO's own size table
+/// (`MET_ValueTypeSize`) and ITK give them; an `_ARRAY` type is its
+/// element's, as MetaIO reads it (its channels are
+/// `ElementNumberOfChannels`, checked apart).
 fn meta_type(s: &str) -> Result<(ScalarType, Option<Int64>)> {
-    let ty = match s.to_uppercase().as_str() {
+    let upper = s.to_uppercase();
+    let ty = match upper.strip_suffix("_ARRAY").unwrap_or(&upper) {
         "MET_CHAR" => ScalarType::I8,
         "MET_UCHAR" => ScalarType::U8,
         "MET_SHORT" => ScalarType::I16,
         "MET_USHORT" => ScalarType::U16,
-        "MET_INT" => ScalarType::I32,
-        "MET_UINT" => ScalarType::U32,
+        "MET_INT" | "MET_LONG" => ScalarType::I32,
+        "MET_UINT" | "MET_ULONG" => ScalarType::U32,
         "MET_FLOAT" => ScalarType::F32,
         "MET_DOUBLE" => ScalarType::F64,
         "MET_LONG_LONG" => return Ok((ScalarType::F64, Some(Int64::Signed))),

@@ -435,16 +435,25 @@ fn nrrd_multi_file_data() {
     ));
 }
 
-fn met_type(ty: ScalarType) -> &'static str {
-    match ty {
-        ScalarType::I8 => "MET_CHAR",
-        ScalarType::U8 => "MET_UCHAR",
-        ScalarType::I16 => "MET_SHORT",
-        ScalarType::U16 => "MET_USHORT",
-        ScalarType::I32 => "MET_INT",
-        ScalarType::U32 => "MET_UINT",
-        ScalarType::F32 => "MET_FLOAT",
-        ScalarType::F64 => "MET_DOUBLE",
+/// MetaIO's names for `ty`, the `k`-th of them (cycling): the scalar, its
+/// one-channel `_ARRAY` form, and for 32-bit integers `MET_LONG` and
+/// `MET_ULONG`, which MetaIO sizes at 4 bytes (`MET_ValueTypeSize`).
+fn met_type(ty: ScalarType, k: usize) -> String {
+    let names: &[&str] = match ty {
+        ScalarType::I8 => &["MET_CHAR"],
+        ScalarType::U8 => &["MET_UCHAR"],
+        ScalarType::I16 => &["MET_SHORT"],
+        ScalarType::U16 => &["MET_USHORT"],
+        ScalarType::I32 => &["MET_INT", "MET_LONG"],
+        ScalarType::U32 => &["MET_UINT", "MET_ULONG"],
+        ScalarType::F32 => &["MET_FLOAT"],
+        ScalarType::F64 => &["MET_DOUBLE"],
+    };
+    let name = names[k % names.len()];
+    if k / names.len() % 2 == 1 {
+        format!("{name}_ARRAY")
+    } else {
+        name.to_string()
     }
 }
 
@@ -492,7 +501,7 @@ fn metaimage_every_type_byte_order_and_compression() {
                         "ObjectType = Image\nNDims = 3\nDimSize = 5 3 7\nElementType = {}\n\
                          ElementSpacing = 0.5 2 1.5\n{pos_key} = -1.5 2 100\n{matrix}\
                          BinaryData = True\n{order_key} = {}\nCompressedData = {}\n",
-                        met_type(ty),
+                        met_type(ty, case),
                         if msb { "True" } else { "False" },
                         if compressed { "True" } else { "False" },
                     );
@@ -1245,7 +1254,15 @@ fn metaimage_and_npy_bad_files() {
     ));
     expect_unsupported(&mha(
         "array.mha",
-        &head.replace("MET_SHORT", "MET_SHORT_ARRAY"),
+        &format!(
+            "{}ElementNumberOfChannels = 2\n",
+            head.replace("MET_SHORT", "MET_SHORT_ARRAY")
+        ),
+        &raw,
+    ));
+    expect_unsupported(&mha(
+        "matrix.mha",
+        &head.replace("MET_SHORT", "MET_FLOAT_MATRIX"),
         &raw,
     ));
     expect_invalid(
