@@ -485,19 +485,28 @@ struct CompositeBand<'a> {
 /// reached [`EARLY_TERMINATION`] is passed over.
 const CHUNK: usize = 32;
 
+/// The most pixels one [`CompositeBand::blend`] takes: up to four
+/// neighbouring chunks still live, so that the call's fixed cost (the
+/// look-up's set-up, the loops' ends) is spread over more samples while
+/// termination keeps the chunk's finer grain. Measured on the translucent
+/// 512³ shell: blends of 64 and 128 pixels ~10% faster than of 32; chunks
+/// of 128 would have passed over fewer pixels (twice the samples under an
+/// opaque table, and slower).
+const RUN: usize = 4 * CHUNK;
+
 impl CompositeBand<'_> {
     /// Front-to-back over the pixels `o..o + vals.len()` (at most a
-    /// [`CHUNK`]; lane by lane: every pixel's chain is its own; a pixel past
+    /// [`RUN`]; lane by lane: every pixel's chain is its own; a pixel past
     /// [`EARLY_TERMINATION`] takes `α = 0`, which adds exactly nothing).
     /// `GREY`: the table is grey ([`TfTable::grey`]), and only red and
     /// opacity are kept.
     #[inline(always)]
     fn blend<const GREY: bool>(&mut self, o: usize, vals: &[f32], q: u16) {
-        let n = vals.len().min(CHUNK);
+        let n = vals.len().min(RUN);
         let t = self.table;
         // The table's entries first (loads by index), then the arithmetic
         // over contiguous lanes, which vectorises.
-        let (mut ln_tau, mut col) = ([0f32; CHUNK], [[0f32; CHUNK]; 3]);
+        let (mut ln_tau, mut col) = ([0f32; RUN], [[0f32; RUN]; 3]);
         #[cfg(target_arch = "x86_64")]
         let looked_up = self.avx2 && {
             // SAFETY: `avx2` is set only where the CPU has AVX2.
@@ -556,7 +565,7 @@ impl CompositeBand<'_> {
     }
 }
 
-/// The table's entries for `vals` (at most a [`CHUNK`]) as the scalar
+/// The table's entries for `vals` (at most a [`RUN`]) as the scalar
 /// loop of [`CompositeBand::blend`] reads them, eight lanes at a time
 /// without gathers: the entry index as the scalar's ([`entries_avx2`]),
 /// then each entry's 16 bytes by one load, two entries to a register
@@ -567,18 +576,18 @@ impl CompositeBand<'_> {
 /// Called only where the CPU has AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn lookup_avx2(t: &TfTable, vals: &[f32], ln_tau: &mut [f32; CHUNK], col: &mut [[f32; CHUNK]; 3]) {
+fn lookup_avx2(t: &TfTable, vals: &[f32], ln_tau: &mut [f32; RUN], col: &mut [[f32; RUN]; 3]) {
     use std::arch::x86_64::*;
-    let n = vals.len().min(CHUNK);
-    let mut padded = [0f32; CHUNK];
+    let n = vals.len().min(RUN);
+    let mut padded = [0f32; RUN];
     padded[..n].copy_from_slice(&vals[..n]);
-    let mut idx = [0u32; CHUNK];
+    let mut idx = [0u32; RUN];
     assert!(t.entries.len() == TF_TABLE);
     let entries = t.entries.as_ptr().cast::<f32>();
     let [rs, gs, bs] = col;
     for i in (0..n).step_by(8) {
-        // SAFETY: `i` is a multiple of 8 below `n ≤ CHUNK = 32`, so
-        // `i + 8 ≤ CHUNK` and every load and store stays in the arrays;
+        // SAFETY: `i` is a multiple of 8 below `n ≤ RUN` (a multiple of
+        // 8), so `i + 8 ≤ RUN` and every load and store stays in the arrays;
         // each index is in `0..TF_TABLE` ([`entries_avx2`]), so each
         // entry's 16 bytes lie in the table (asserted length).
         unsafe {
@@ -636,17 +645,17 @@ fn entries_avx2(t: &TfTable, s: std::arch::x86_64::__m256) -> std::arch::x86_64:
 /// Called only where the CPU has AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn lookup_grey_avx2(t: &TfTable, vals: &[f32], ln_tau: &mut [f32; CHUNK], grey: &mut [f32; CHUNK]) {
+fn lookup_grey_avx2(t: &TfTable, vals: &[f32], ln_tau: &mut [f32; RUN], grey: &mut [f32; RUN]) {
     use std::arch::x86_64::*;
-    let n = vals.len().min(CHUNK);
-    let mut padded = [0f32; CHUNK];
+    let n = vals.len().min(RUN);
+    let mut padded = [0f32; RUN];
     padded[..n].copy_from_slice(&vals[..n]);
     assert!(t.pairs.len() == TF_TABLE);
     let pairs = t.pairs.as_ptr().cast::<f32>();
-    let mut idx = [0u32; CHUNK];
+    let mut idx = [0u32; RUN];
     for i in (0..n).step_by(8) {
-        // SAFETY: `i` is a multiple of 8 below `n ≤ CHUNK = 32`, so
-        // `i + 8 ≤ CHUNK` and every load and store stays in the arrays;
+        // SAFETY: `i` is a multiple of 8 below `n ≤ RUN` (a multiple of
+        // 8), so `i + 8 ≤ RUN` and every load and store stays in the arrays;
         // each index is in `0..TF_TABLE` ([`entries_avx2`]), so the eight
         // bytes at float `2·index` lie in the pairs (asserted length).
         unsafe {
@@ -677,13 +686,20 @@ impl Accumulate for CompositeBand<'_> {
     fn add(&mut self, row: usize, lo: usize, [v0, v1]: [&[f32]; 2], fb: f32, q: u16) -> u64 {
         let chunks = self.w.div_ceil(CHUNK);
         let (hi, mut n) = (lo + v0.len(), 0);
-        let mut vals = [0f32; CHUNK];
-        for c in lo / CHUNK..hi.div_ceil(CHUNK) {
-            if self.done[row * chunks + c] {
+        let row_done = row * chunks;
+        let mut vals = [0f32; RUN];
+        let (mut c, c_end) = (lo / CHUNK, hi.div_ceil(CHUNK));
+        while c < c_end {
+            if self.done[row_done + c] {
+                c += 1;
                 continue;
             }
-            let (c0, c1) = (c * CHUNK, ((c + 1) * CHUNK).min(self.w));
-            let (x0, x1) = (c0.max(lo), c1.min(hi));
+            // A run of live chunks, blended in one call.
+            let first = c;
+            while c < c_end && c - first < RUN / CHUNK && !self.done[row_done + c] {
+                c += 1;
+            }
+            let (x0, x1) = ((first * CHUNK).max(lo), (c * CHUNK).min(hi));
             let vals = &mut vals[..x1 - x0];
             for ((v, &a), &b) in vals.iter_mut().zip(&v0[x0 - lo..]).zip(&v1[x0 - lo..]) {
                 *v = a + fb * (b - a);
@@ -694,10 +710,11 @@ impl Accumulate for CompositeBand<'_> {
                 self.blend::<false>(row * self.w + x0, vals, q);
             }
             n += (x1 - x0) as u64;
-            let o = row * self.w;
-            self.done[row * chunks + c] = self.rgba[3][o + c0..o + c1]
-                .iter()
-                .all(|&a| a >= EARLY_TERMINATION);
+            let alpha = &self.rgba[3][row * self.w..(row + 1) * self.w];
+            for k in first..c {
+                let pixels = &alpha[k * CHUNK..((k + 1) * CHUNK).min(self.w)];
+                self.done[row_done + k] = pixels.iter().all(|&a| a >= EARLY_TERMINATION);
+            }
         }
         n
     }
@@ -2273,15 +2290,15 @@ mod tests {
         ];
         let mut ends = 0;
         for _ in 0..2_000 {
-            let n = rng.random_range(0..=CHUNK);
+            let n = rng.random_range(0..=RUN);
             let vals: Vec<f32> = (0..n)
                 .map(|_| match rng.random_range(0..3) {
                     0 => special[rng.random_range(0..special.len())],
                     _ => rng.random_range(-4.0..7.0),
                 })
                 .collect();
-            let mut want = ([0f32; CHUNK], [[0f32; CHUNK]; 3]);
-            let mut want_grey = ([0f32; CHUNK], [0f32; CHUNK]);
+            let mut want = ([0f32; RUN], [[0f32; RUN]; 3]);
+            let mut want_grey = ([0f32; RUN], [0f32; RUN]);
             for (k, &s) in vals.iter().enumerate() {
                 let e = t.entry(s);
                 ends += usize::from(e == 0 || e == TF_TABLE - 1);
@@ -2289,8 +2306,8 @@ mod tests {
                 let e = gt.entry(s);
                 [want_grey.0[k], want_grey.1[k]] = [gt.entries[e][0], gt.entries[e][1]];
             }
-            let mut got = ([0f32; CHUNK], [[0f32; CHUNK]; 3]);
-            let mut grey = ([0f32; CHUNK], [0f32; CHUNK]);
+            let mut got = ([0f32; RUN], [[0f32; RUN]; 3]);
+            let mut grey = ([0f32; RUN], [0f32; RUN]);
             // SAFETY: AVX2 is detected above.
             unsafe {
                 lookup_avx2(&t, &vals, &mut got.0, &mut got.1);
@@ -2307,6 +2324,100 @@ mod tests {
             assert_eq!(bits(&grey.1), bits(&want_grey.1), "{vals:?}");
         }
         assert!(ends > 1_000, "{ends} samples at the table's ends");
+    }
+
+    /// Compositing a span of a row (runs of up to [`RUN`] pixels across
+    /// live chunks, chunks past [`EARLY_TERMINATION`] passed over) gives
+    /// every pixel what the blend of that one pixel alone gives, bit for
+    /// bit, and counts the samples of the live chunks: rows wider than a
+    /// run, spans starting and ending inside chunks, pixels terminating on
+    /// the way, grey and coloured tables, portable and AVX2 look-ups.
+    #[test]
+    fn runs_of_chunks_blend_as_single_pixels() {
+        let mut rng = StdRng::seed_from_u64(71);
+        let window = (0.0, 1.0);
+        let coloured = TransferFunction::parse("0:0,0.3:0.6:#2040ff,1:1:#ff8000").unwrap();
+        let grey = TransferFunction::parse("0:0,0.3:0.6,1:1").unwrap();
+        #[cfg(target_arch = "x86_64")]
+        let wide = std::arch::is_x86_feature_detected!("avx2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let wide = false;
+        let (w, rows) = (5 * RUN + 17, 3);
+        let mut live_runs = 0;
+        for tf in [&coloured, &grey] {
+            let table = TfTable::new(tf, window);
+            for avx2 in [false, wide] {
+                let n = w * rows;
+                let mut band = CompositeBand {
+                    w,
+                    rgba: std::array::from_fn(|c| {
+                        vec![
+                            0.0;
+                            if table.grey && (c == 1 || c == 2) {
+                                0
+                            } else {
+                                n
+                            }
+                        ]
+                    }),
+                    q: vec![u16::MAX; n],
+                    y: (0..n).map(|_| rng.random_range(0.3..3.0)).collect(),
+                    seen: vec![true; n],
+                    done: vec![false; rows * w.div_ceil(CHUNK)],
+                    table: &table,
+                    avx2,
+                };
+                // Each pixel's own state: `[r, g, b, a]` and its slice.
+                let mut want = vec![([0f32; 4], u16::MAX); n];
+                for q in 0..300u16 {
+                    let row = rng.random_range(0..rows);
+                    let lo = rng.random_range(0..w);
+                    let hi = rng.random_range(lo + 1..=w);
+                    let v0: Vec<f32> = (lo..hi).map(|_| rng.random_range(-0.1..1.1)).collect();
+                    let v1: Vec<f32> = (lo..hi).map(|_| rng.random_range(-0.1..1.1)).collect();
+                    let fb = rng.random_range(0.0..1.0);
+                    let chunks = w.div_ceil(CHUNK);
+                    let live = (lo / CHUNK..hi.div_ceil(CHUNK))
+                        .filter(|&c| !band.done[row * chunks + c])
+                        .map(|c| ((c + 1) * CHUNK).min(hi) - (c * CHUNK).max(lo))
+                        .sum::<usize>();
+                    live_runs += usize::from(live > RUN);
+                    let got = band.add(row, lo, [&v0, &v1], fb, q);
+                    assert_eq!(got, live as u64);
+                    for x in lo..hi {
+                        let (px, slice) = &mut want[row * w + x];
+                        let s = v0[x - lo] + fb * (v1[x - lo] - v0[x - lo]);
+                        let [ln, r, g, b] = table.entries[table.entry(s)];
+                        let tau = if ln == f32::NEG_INFINITY { 1.0 } else { 0.0 };
+                        let alpha = corrected_opacity_from_log(tau, ln, band.y[row * w + x]);
+                        let alpha = if px[3] < EARLY_TERMINATION {
+                            alpha
+                        } else {
+                            0.0
+                        };
+                        let wgt = (1.0 - px[3]) * alpha;
+                        px[0] += wgt * r;
+                        px[1] += wgt * g;
+                        px[2] += wgt * b;
+                        px[3] += wgt;
+                        if *slice == u16::MAX && alpha > 0.0 {
+                            *slice = q;
+                        }
+                    }
+                }
+                let mut terminated = 0;
+                for (o, (px, slice)) in want.iter().enumerate() {
+                    let ch = |c: usize| band.rgba[if table.grey && c < 3 { 0 } else { c }][o];
+                    let got = [ch(0), ch(1), ch(2), ch(3)].map(f32::to_bits);
+                    assert_eq!(got, px.map(f32::to_bits), "pixel {o}, grey {}", table.grey);
+                    assert_eq!(band.q[o], *slice, "pixel {o}");
+                    terminated += usize::from(px[3] >= EARLY_TERMINATION);
+                }
+                assert!(terminated > n / 4, "{terminated} of {n} pixels terminated");
+                assert!(band.done.iter().any(|&d| d), "no chunk was passed over");
+            }
+        }
+        assert!(live_runs > 20, "{live_runs} spans longer than a run");
     }
 
     /// The permuted resampling (AVX2, 8 columns from 16 samples; AVX-512,
