@@ -27,7 +27,8 @@
 //!   with the stretch between two slices (`ℓ = 1/|d_c|` world units for a
 //!   ray of unit world speed `d`) as each sample's length; the transfer
 //!   function read from a table of [`TF_TABLE`] entries over its span
-//!   (nearest entry).
+//!   (nearest entry). A table without colours (grey, as the default
+//!   ramp's) is blended in one colour channel, the same sums.
 //!
 //! # Error
 //! Every ray reads the same samples (trilinear on the slice planes), not
