@@ -1567,11 +1567,16 @@ fn sixty_four_bit_integers_read_narrowed_and_exact() {
                 write(&p, &[head("gzip").as_bytes(), &gzip(&bytes)]);
                 let v = read_volume(&p, MemoryLimit::DEFAULT).unwrap();
                 assert_samples(&v, *ty, &want, &format!("{what} gzip"));
-                let elem = if unsigned {
-                    "MET_ULONG_LONG"
-                } else {
-                    "MET_LONG_LONG"
-                };
+                // The big-endian files spell it as the one-channel array.
+                let elem = format!(
+                    "{}{}",
+                    if unsigned {
+                        "MET_ULONG_LONG"
+                    } else {
+                        "MET_LONG_LONG"
+                    },
+                    if big { "_ARRAY" } else { "" }
+                );
                 let msb = if big { "True" } else { "False" };
                 let p = dir.join(format!("m{k}{name}{endian}.mha"));
                 let mh = format!(
