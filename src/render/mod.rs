@@ -57,7 +57,7 @@ pub use volume::{
 use crate::error::{Result, VoxkitError};
 use crate::grid::{GridFrame, MemoryLimit};
 use crate::line::Segment;
-use normal::{FitCache, Moments};
+use normal::{Fit, FitCache, Moments};
 
 /// Image rows per task of [`render_grid_window`]: the rows of a band share
 /// their smooth normals' fits.
@@ -813,9 +813,9 @@ pub fn render_grid_window<G: RenderBricks>(
                     if let Some(v) = v {
                         hits += 1;
                         let (t, axis) = ray.entry(v);
-                        let fit = fits.as_mut().map(|f| {
-                            f.moments(x, v, || Moments::around(v, |b| occ.occupancy_mask(b)))
-                        });
+                        let fit = fits
+                            .as_mut()
+                            .map(|f| f.fit(x, v, || Moments::around(v, |b| occ.occupancy_mask(b))));
                         color[i] = shade(occ, &setup, &ray, v, axis, fit.as_ref(), opts);
                         depth[i] = t as f32;
                         hit[i] = Some(v);
@@ -935,14 +935,14 @@ pub(crate) fn camera_check(camera: &Camera) -> Result<()> {
 }
 
 /// Lambert from a headlight plus ambient, on the hit voxel's colour; `fit`:
-/// the window moments around the hit, for smooth normals.
+/// the plane fitted around the hit, for smooth normals.
 fn shade<G: RenderBricks>(
     occ: &G,
     setup: &RaySetup,
     ray: &GridRay,
     v: IVec3,
     axis: Option<usize>,
-    fit: Option<&Moments>,
+    fit: Option<&Fit>,
     opts: &RenderOptions,
 ) -> [f32; 4] {
     let face = match axis {
