@@ -27,7 +27,8 @@
 //!   `fmt min max step [subdim]` (`%d`-style, e.g. `slice%03d.raw 1 93 1`).
 //!   Relative data paths are relative to the header's directory.
 //! - **MetaImage** `NDims = 3`, `DimSize`, `ElementType` `MET_CHAR` …
-//!   `MET_DOUBLE`, `MET_LONG`/`MET_ULONG` (4 bytes, as MetaIO sizes them),
+//!   `MET_DOUBLE`, `MET_ASCII_CHAR` (a signed byte, as ITK reads it),
+//!   `MET_LONG`/`MET_ULONG` (4 bytes, as MetaIO sizes them),
 //!   `MET_LONG_LONG`/`MET_ULONG_LONG` (narrowed as NRRD's 64-bit integers)
 //!   and each one's `_ARRAY` form with one channel, `ElementSpacing` (else
 //!   `ElementSize`),
@@ -1566,13 +1567,15 @@ fn meta_fields(head: &Head) -> Result<Fields> {
 /// The sample type a MetaImage `ElementType` names, and whether it is a
 /// 64-bit integer (then read as [`ScalarType::F64`]-wide samples).
 /// `MET_LONG` and `MET_ULONG` take 4 bytes, as MetaIO's own size table
-/// (`MET_ValueTypeSize`) and ITK give them; an `_ARRAY` type is its
+/// (`MET_ValueTypeSize`) and ITK give them; `MET_ASCII_CHAR` is a signed
+/// byte, as MetaIO converts it and ITK reads it (as `MET_CHAR`); an
+/// `_ARRAY` type is its
 /// element's, as MetaIO reads it (its channels are
 /// `ElementNumberOfChannels`, checked apart).
 fn meta_type(s: &str) -> Result<(ScalarType, Option<Int64>)> {
     let upper = s.to_uppercase();
     let ty = match upper.strip_suffix("_ARRAY").unwrap_or(&upper) {
-        "MET_CHAR" => ScalarType::I8,
+        "MET_CHAR" | "MET_ASCII_CHAR" => ScalarType::I8,
         "MET_UCHAR" => ScalarType::U8,
         "MET_SHORT" => ScalarType::I16,
         "MET_USHORT" => ScalarType::U16,

@@ -436,11 +436,12 @@ fn nrrd_multi_file_data() {
 }
 
 /// MetaIO's names for `ty`, the `k`-th of them (cycling): the scalar, its
-/// one-channel `_ARRAY` form, and for 32-bit integers `MET_LONG` and
-/// `MET_ULONG`, which MetaIO sizes at 4 bytes (`MET_ValueTypeSize`).
+/// one-channel `_ARRAY` form, for 32-bit integers `MET_LONG` and
+/// `MET_ULONG`, which MetaIO sizes at 4 bytes (`MET_ValueTypeSize`), and
+/// for signed bytes `MET_ASCII_CHAR` (which has no `_ARRAY` form).
 fn met_type(ty: ScalarType, k: usize) -> String {
     let names: &[&str] = match ty {
-        ScalarType::I8 => &["MET_CHAR"],
+        ScalarType::I8 => &["MET_CHAR", "MET_ASCII_CHAR"],
         ScalarType::U8 => &["MET_UCHAR"],
         ScalarType::I16 => &["MET_SHORT"],
         ScalarType::U16 => &["MET_USHORT"],
@@ -450,7 +451,7 @@ fn met_type(ty: ScalarType, k: usize) -> String {
         ScalarType::F64 => &["MET_DOUBLE"],
     };
     let name = names[k % names.len()];
-    if k / names.len() % 2 == 1 {
+    if k / names.len() % 2 == 1 && name != "MET_ASCII_CHAR" {
         format!("{name}_ARRAY")
     } else {
         name.to_string()
