@@ -961,9 +961,9 @@ impl Accum for Iso {
 
 /// Compositing's per-sample work on a volume of 8- or 16-bit integers,
 /// done once per value of its range rather than per visited voxel: the
-/// transfer function's opacity `τ`, `ln(1 − τ)` and the colour, each the
-/// same arithmetic on the same `f32` value as the per-voxel path, so bit
-/// for bit what it gives.
+/// transfer function's opacity `τ`, `ln(1 − τ)` and (for a coloured
+/// function) the colour, each the same arithmetic on the same `f32` value
+/// as the per-voxel path, so bit for bit what it gives.
 struct ValueTable {
     lo: i32,
     /// `(τ, ln(1 − τ))` of value `lo + i`.
