@@ -1055,39 +1055,55 @@ fn row_pass<T: Stored>(
 ) {
     buf.clear();
     buf.extend(row[..nx].iter().map(|&s| fix(s).value()));
-    let b = BRICK as usize;
     let n = out.len() / 6;
-    for (bx, chunk) in buf.chunks(b).enumerate() {
-        // No NaN reaches here (`fix` and the narrowing map it to −∞), so
-        // plain comparisons are `f32::min`/`max`; whole chunks have a fixed
-        // length, and their reductions vectorize.
-        let fold = |c: &[f32]| {
-            c.iter()
-                .fold((f32::INFINITY, f32::NEG_INFINITY), |(mn, mx), &v| {
-                    (if v < mn { v } else { mn }, if v > mx { v } else { mx })
-                })
-        };
-        let (mut mn, mut mx) = match <&[f32; 8]>::try_from(chunk) {
-            Ok(c) => fold(c),
-            Err(_) => fold(chunk),
-        };
-        out[bx] = mn;
-        out[n + bx] = mx;
-        let (lo, hi) = (bx * b, bx * b + chunk.len() - 1);
-        for r in 1..3 {
-            for x in [lo.wrapping_sub(r), hi + r] {
-                if let Some(&v) = buf.get(x) {
-                    if v < mn {
-                        mn = v;
-                    }
-                    if v > mx {
-                        mx = v;
-                    }
-                }
-            }
-            out[2 * r * n + bx] = mn;
-            out[(2 * r + 1) * n + bx] = mx;
-        }
+    debug_assert!(nx >= 1 && n == nx.div_ceil(BRICK as usize));
+    let (level0, wider) = out.split_at_mut(2 * n);
+    let (min0, max0) = level0.split_at_mut(n);
+    // No NaN reaches here (`fix` and the narrowing map it to −∞), so plain
+    // comparisons are `f32::min`/`max`, and they compile to `minss`/`maxss`
+    // rather than to branches on the data (which mispredicted on noisy
+    // rows: the apron's four comparisons a brick were a third of the
+    // pass).
+    let min = |a: f32, b: f32| if b < a { b } else { a };
+    let max = |a: f32, b: f32| if b > a { b } else { a };
+    let fold = |c: &[f32]| {
+        c.iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(mn, mx), &v| {
+                (min(mn, v), max(mx, v))
+            })
+    };
+    // Level 0: whole chunks have a fixed length, and their reductions
+    // vectorize; a short last chunk folds apart.
+    let whole = nx / BRICK as usize;
+    for (bx, c) in buf.chunks_exact(BRICK as usize).enumerate() {
+        let c: &[f32; BRICK as usize] = c.try_into().expect("exact chunks");
+        (min0[bx], max0[bx]) = fold(c);
+    }
+    if whole < n {
+        (min0[whole], max0[whole]) = fold(&buf[whole * BRICK as usize..]);
+    }
+    // Levels 1 and 2 grow level 0 by the samples `r` before and after the
+    // chunk; where the row has none, a sample of the chunk itself stands
+    // in (it is already in the range), so every brick takes the same
+    // branch-free steps.
+    let (level1, level2) = wider.split_at_mut(2 * n);
+    let (min1, max1) = level1.split_at_mut(n);
+    let (min2, max2) = level2.split_at_mut(n);
+    for bx in 0..n {
+        let lo = bx * BRICK as usize;
+        let hi = (lo + BRICK as usize - 1).min(nx - 1);
+        let at = |x: Option<usize>| buf[x.filter(|&x| x < nx).unwrap_or(lo)];
+        let [before1, after1, before2, after2] = [
+            lo.checked_sub(1),
+            Some(hi + 1),
+            lo.checked_sub(2),
+            Some(hi + 2),
+        ]
+        .map(at);
+        min1[bx] = min(min(min0[bx], before1), after1);
+        max1[bx] = max(max(max0[bx], before1), after1);
+        min2[bx] = min(min(min1[bx], before2), after2);
+        max2[bx] = max(max(max1[bx], before2), after2);
     }
 }
 
