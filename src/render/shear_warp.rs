@@ -246,6 +246,10 @@ struct TfTable {
     /// the grey blend reads, 32 KiB, which stays in the first-level cache
     /// where the full entries (64 KiB) did not; empty otherwise.
     pairs: Vec<[f32; 2]>,
+    /// `Some(y)`: every pixel's stretch is `y` (an orthographic view), and
+    /// the first value of each entry (and pair) holds the corrected opacity
+    /// `α` for it ([`TfTable::for_stretch`]) instead of `ln(1 − τ)`.
+    stretch: Option<f32>,
 }
 
 impl TfTable {
@@ -291,7 +295,28 @@ impl TfTable {
             opaque_before,
             grey,
             pairs,
+            stretch: None,
         }
+    }
+
+    /// The table for a view whose every pixel has the stretch `y`: each
+    /// entry's `α = corrected_opacity_from_log(τ, ln(1 − τ), y)` found
+    /// once, by the operations [`CompositeBand::blend`] would apply to
+    /// every sample taking the entry, so the same bits, and the
+    /// exponential leaves the blend.
+    fn for_stretch(mut self, y: f32) -> TfTable {
+        let alpha = |ln: f32| {
+            let tau = if ln == f32::NEG_INFINITY { 1.0 } else { 0.0 };
+            corrected_opacity_from_log(tau, ln, y)
+        };
+        for e in &mut self.entries {
+            e[0] = alpha(e[0]);
+        }
+        for p in &mut self.pairs {
+            p[0] = alpha(p[0]);
+        }
+        self.stretch = Some(y);
+        self
     }
 
     #[inline(always)]
@@ -500,9 +525,10 @@ impl CompositeBand<'_> {
     /// [`RUN`]; lane by lane: every pixel's chain is its own; a pixel past
     /// [`EARLY_TERMINATION`] takes `α = 0`, which adds exactly nothing).
     /// `GREY`: the table is grey ([`TfTable::grey`]), and only red and
-    /// opacity are kept.
+    /// opacity are kept. `ALPHA`: the table holds each entry's `α` for
+    /// every pixel's stretch ([`TfTable::for_stretch`]).
     #[inline(always)]
-    fn blend<const GREY: bool>(&mut self, o: usize, vals: &[f32], q: u16) {
+    fn blend<const GREY: bool, const ALPHA: bool>(&mut self, o: usize, vals: &[f32], q: u16) {
         let n = vals.len().min(RUN);
         let t = self.table;
         // The table's entries first (loads by index), then the arithmetic
@@ -548,7 +574,11 @@ impl CompositeBand<'_> {
             } else {
                 0.0
             };
-            let alpha = corrected_opacity_from_log(tau, ln_tau[k], ys[k]);
+            let alpha = if ALPHA {
+                ln_tau[k]
+            } else {
+                corrected_opacity_from_log(tau, ln_tau[k], ys[k])
+            };
             let alpha = if a[k] < EARLY_TERMINATION { alpha } else { 0.0 };
             let wgt = (1.0 - a[k]) * alpha;
             r[k] += wgt * col[0][k];
@@ -682,9 +712,19 @@ fn lookup_grey_avx2(t: &TfTable, vals: &[f32], ln_tau: &mut [f32; RUN], grey: &m
     }
 }
 
-impl Accumulate for CompositeBand<'_> {
+impl CompositeBand<'_> {
+    /// [`Accumulate::add`], each sample's `α` computed from its stretch
+    /// or, with `ALPHA`, looked up ([`TfTable::for_stretch`]).
     #[inline(always)]
-    fn add(&mut self, row: usize, lo: usize, [v0, v1]: [&[f32]; 2], fb: f32, q: u16) -> u64 {
+    fn add_runs<const ALPHA: bool>(
+        &mut self,
+        row: usize,
+        lo: usize,
+        [v0, v1]: [&[f32]; 2],
+        fb: f32,
+        q: u16,
+    ) -> u64 {
+        debug_assert_eq!(ALPHA, self.table.stretch.is_some());
         let chunks = self.w.div_ceil(CHUNK);
         let (hi, mut n) = (lo + v0.len(), 0);
         let row_done = row * chunks;
@@ -706,9 +746,9 @@ impl Accumulate for CompositeBand<'_> {
                 *v = a + fb * (b - a);
             }
             if self.table.grey {
-                self.blend::<true>(row * self.w + x0, vals, q);
+                self.blend::<true, ALPHA>(row * self.w + x0, vals, q);
             } else {
-                self.blend::<false>(row * self.w + x0, vals, q);
+                self.blend::<false, ALPHA>(row * self.w + x0, vals, q);
             }
             n += (x1 - x0) as u64;
             let alpha = &self.rgba[3][row * self.w..(row + 1) * self.w];
@@ -719,6 +759,13 @@ impl Accumulate for CompositeBand<'_> {
         }
         n
     }
+}
+
+impl Accumulate for CompositeBand<'_> {
+    #[inline(always)]
+    fn add(&mut self, row: usize, lo: usize, v: [&[f32]; 2], fb: f32, q: u16) -> u64 {
+        self.add_runs::<false>(row, lo, v, fb, q)
+    }
 
     fn live(&self, row: usize, lo: usize, hi: usize) -> bool {
         let chunks = self.w.div_ceil(CHUNK);
@@ -728,6 +775,28 @@ impl Accumulate for CompositeBand<'_> {
     fn cover(&mut self, row: usize, lo: usize, hi: usize) {
         let o = row * self.w;
         self.seen[o + lo..o + hi].fill(true);
+    }
+}
+
+/// A compositing band whose table holds each entry's `α` for every
+/// pixel's one stretch ([`TfTable::for_stretch`]). A type of its own, so
+/// that the shear compiled for it and the one for per-sample opacities
+/// each hold only their own blends (one shear holding both ran the
+/// perspective frame ~15% slower).
+struct LookedUpAlpha<'b, 'a>(&'b mut CompositeBand<'a>);
+
+impl Accumulate for LookedUpAlpha<'_, '_> {
+    #[inline(always)]
+    fn add(&mut self, row: usize, lo: usize, v: [&[f32]; 2], fb: f32, q: u16) -> u64 {
+        self.0.add_runs::<true>(row, lo, v, fb, q)
+    }
+
+    fn live(&self, row: usize, lo: usize, hi: usize) -> bool {
+        self.0.live(row, lo, hi)
+    }
+
+    fn cover(&mut self, row: usize, lo: usize, hi: usize) {
+        self.0.cover(row, lo, hi);
     }
 }
 
@@ -744,6 +813,7 @@ pub(crate) fn render(
         slab_cap: SLAB_CAP,
         skip: true,
         grey: true,
+        alpha_table: true,
         #[cfg(target_arch = "x86_64")]
         avx2: std::arch::is_x86_feature_detected!("avx2"),
         #[cfg(target_arch = "x86_64")]
@@ -764,6 +834,9 @@ struct Tuning {
     /// Blend one colour channel where the table is grey
     /// ([`TfTable::grey`]).
     grey: bool,
+    /// Look each sample's `α` up where every pixel's stretch is the same
+    /// (orthographic views; [`TfTable::for_stretch`]).
+    alpha_table: bool,
     #[cfg(target_arch = "x86_64")]
     avx2: bool,
     /// The shear compiled for AVX-512 (with `avx2`) and its perspective
@@ -825,10 +898,17 @@ fn render_with(
     }
     let composite = vopts.mode == VolumeMode::Composite;
     let threads = rayon::current_num_threads();
+    // Every pixel's stretch between slices, in an orthographic view.
+    let y_ortho = f
+        .dir
+        .map(|d| (1.0 / (d[f.c].abs() * scene.reference_length())) as f32);
     let table = composite.then(|| {
         let mut t = TfTable::new(&vopts.transfer, vopts.window);
         t.grey &= tuning.grey;
-        t
+        match y_ortho {
+            Some(y) if tuning.alpha_table => t.for_stretch(y),
+            _ => t,
+        }
     });
     opts.limit.check(
         "shear-warp intermediate image",
@@ -872,15 +952,17 @@ fn render_with(
                 .sum::<u64>();
         }
         Intermediate::Composite(c) => {
-            let y_ortho = f
-                .dir
-                .map(|d| (1.0 / (d[f.c].abs() * scene.reference_length())) as f32);
             samples += c
                 .par_iter_mut()
                 .enumerate()
                 .map(|(band, acc)| {
                     fill_stretches(scene, &f, band * BAND, y_ortho, acc);
-                    shear_as(tuning, &shear_job(table.as_ref()), band * BAND, acc)
+                    let job = shear_job(table.as_ref());
+                    if acc.table.stretch.is_some() {
+                        shear_as(tuning, &job, band * BAND, &mut LookedUpAlpha(acc))
+                    } else {
+                        shear_as(tuning, &job, band * BAND, acc)
+                    }
                 })
                 .sum::<u64>();
         }
@@ -2121,6 +2203,7 @@ mod tests {
             slab_cap,
             skip: slab_cap > 0 || _avx2,
             grey: slab_cap > 0 || _avx2,
+            alpha_table: slab_cap > 0 || _avx2,
             #[cfg(target_arch = "x86_64")]
             avx2: _avx2 && wide,
             #[cfg(target_arch = "x86_64")]
@@ -2138,7 +2221,7 @@ mod tests {
             height: 56,
             ..RenderOptions::default()
         };
-        let mut slabbed = 0;
+        let (mut slabbed, mut ortho_composites) = (0, 0);
         let coloured = TransferFunction::parse("0.2:0,0.5:0.3:#2040ff,0.9:0.8:#ff8000").unwrap();
         let modes = [
             opts(VolumeMethod::ShearWarp, VolumeMode::Mip, (0.2, 0.9)),
@@ -2167,9 +2250,16 @@ mod tests {
                     assert_eq!(img, rows, "{cam:?} {mode:?} {t:?}");
                 }
                 slabbed += 1;
+                // The first tuning computes every `α`; the others look
+                // orthographic views' up (`alpha_table`).
+                ortho_composites += usize::from(t % 2 == 0 && mode == VolumeMode::Composite);
             }
         }
         assert!(slabbed >= 30, "{slabbed} views factorized");
+        assert!(
+            ortho_composites >= 10,
+            "{ortho_composites} orthographic composites"
+        );
     }
 
     /// The packed table's `ln(1 − τ)` (`−∞` where `τ ≥ 1`) gives, through
@@ -2195,6 +2285,31 @@ mod tests {
             }
         }
         assert!(opaque > 500, "{opaque} opaque entries");
+        // The table for one stretch holds those opacities, in its entries
+        // and (for a grey function) its pairs; colours and the clear
+        // ranges' counts are kept.
+        let grey = TransferFunction::parse("0:0,1:0.3,2:1,3:1,4:0.5,5:0").unwrap();
+        for tf in [&tf, &grey] {
+            let t = TfTable::new(tf, (0.0, 5.0));
+            for y in [1e-6f32, 0.37, 1.0, 1.7320508, 40.0] {
+                let a = TfTable::new(tf, (0.0, 5.0)).for_stretch(y);
+                assert_eq!((a.stretch, a.grey), (Some(y), t.grey));
+                assert_eq!(a.opaque_before, t.opaque_before);
+                assert_eq!(a.pairs.len(), t.pairs.len());
+                for (e, (entry, alpha)) in t.entries.iter().zip(&a.entries).enumerate() {
+                    let tau = tf.opacity(t.lo + e as f32 / t.scale);
+                    let want = crate::render::corrected_opacity(tau, y);
+                    assert_eq!(alpha[0].to_bits(), want.to_bits(), "entry {e}, y {y}");
+                    assert_eq!(alpha[1..], entry[1..]);
+                    if let Some(p) = a.pairs.get(e) {
+                        assert_eq!(
+                            [p[0].to_bits(), p[1].to_bits()],
+                            [want.to_bits(), entry[1].to_bits()]
+                        );
+                    }
+                }
+            }
+        }
     }
 
     /// A range the table calls clear holds no sample whose entry has
@@ -3025,6 +3140,7 @@ mod tests {
                     slab_cap,
                     skip,
                     grey: true,
+                    alpha_table: true,
                     #[cfg(target_arch = "x86_64")]
                     avx2: false,
                     #[cfg(target_arch = "x86_64")]
