@@ -305,15 +305,11 @@ impl TfTable {
     /// every sample taking the entry, so the same bits, and the
     /// exponential leaves the blend.
     fn for_stretch(mut self, y: f32) -> TfTable {
-        let alpha = |ln: f32| {
-            let tau = if ln == f32::NEG_INFINITY { 1.0 } else { 0.0 };
-            corrected_opacity_from_log(tau, ln, y)
-        };
         for e in &mut self.entries {
-            e[0] = alpha(e[0]);
+            e[0] = entry_alpha(e[0], y);
         }
         for p in &mut self.pairs {
-            p[0] = alpha(p[0]);
+            p[0] = entry_alpha(p[0], y);
         }
         self.stretch = Some(y);
         self
@@ -336,6 +332,20 @@ impl TfTable {
         let (e0, e1) = (self.entry(min), self.entry(max));
         e1 < e0 || self.opaque_before[e1 + 1] == self.opaque_before[e0]
     }
+}
+
+/// The corrected opacity for stretch `y` of a table entry holding
+/// `ln(1 − τ)`: `τ ≥ 1` exactly where that is `−∞`, and any `τ < 1` serves
+/// the others (the test is the only use of `τ`). One rule for the blend
+/// and for [`TfTable::for_stretch`], so their bits agree.
+#[inline(always)]
+fn entry_alpha(ln_tau: f32, y: f32) -> f32 {
+    let tau = if ln_tau == f32::NEG_INFINITY {
+        1.0
+    } else {
+        0.0
+    };
+    corrected_opacity_from_log(tau, ln_tau, y)
 }
 
 /// One slice row of the volume resampled along `a` for one slice: the
@@ -567,17 +577,10 @@ impl CompositeBand<'_> {
         };
         let (qs, ys) = (&mut self.q[o..o + n], &self.y[o..o + n]);
         for k in 0..n {
-            // `τ ≥ 1` exactly where the entry holds `ln(1 − τ) = −∞`; any
-            // `τ < 1` serves the others (the test is its only use).
-            let tau = if ln_tau[k] == f32::NEG_INFINITY {
-                1.0
-            } else {
-                0.0
-            };
             let alpha = if ALPHA {
                 ln_tau[k]
             } else {
-                corrected_opacity_from_log(tau, ln_tau[k], ys[k])
+                entry_alpha(ln_tau[k], ys[k])
             };
             let alpha = if a[k] < EARLY_TERMINATION { alpha } else { 0.0 };
             let wgt = (1.0 - a[k]) * alpha;
