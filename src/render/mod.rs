@@ -363,7 +363,10 @@ pub struct RenderStats {
     pub hits: u64,
     /// Voxels whose flags the rays read.
     pub voxels_visited: u64,
-    /// Jumps over empty boxes of bricks (each leaves at least one empty brick).
+    /// Jumps over empty boxes of bricks (each leaves at least one empty
+    /// brick); for shear-warp, the bricks of each band's slice layers that
+    /// skipping passed over (transparent, below the MIP's running maxima,
+    /// or read only by terminated pixels).
     pub bricks_skipped: u64,
     /// Rays not cast: their pixel's tile of 8 × 8 meets no brick that can
     /// change a pixel (found by one coarse pass before the rays; skipping only).

@@ -455,6 +455,13 @@ trait Accumulate: Send {
     fn floor(&self, _rows: u32, _out: &mut [f32]) -> bool {
         false
     }
+    /// Whether every pixel at columns `cols` of the band's rows in the
+    /// mask `rows` (bit `r` for row `r`) is past any change (compositing:
+    /// past [`EARLY_TERMINATION`]); `false` for accumulators whose pixels
+    /// never are.
+    fn finished(&self, _rows: u32, _cols: std::ops::Range<usize>) -> bool {
+        false
+    }
 }
 
 /// MIP: the running maximum (`−∞` before any sample) and the slice that
@@ -779,6 +786,15 @@ impl Accumulate for CompositeBand<'_> {
         let o = row * self.w;
         self.seen[o + lo..o + hi].fill(true);
     }
+
+    /// Done chunks take no sample ([`CompositeBand::add_runs`] passes
+    /// them over), and a chunk once done stays done.
+    fn finished(&self, rows: u32, cols: std::ops::Range<usize>) -> bool {
+        let n_rows = self.done.len() / self.w.div_ceil(CHUNK).max(1);
+        (0..n_rows)
+            .filter(|r| rows >> r & 1 == 1)
+            .all(|r| !self.live(r, cols.start, cols.end))
+    }
 }
 
 /// A compositing band whose table holds each entry's `α` for every
@@ -796,6 +812,10 @@ impl Accumulate for LookedUpAlpha<'_, '_> {
 
     fn live(&self, row: usize, lo: usize, hi: usize) -> bool {
         self.0.live(row, lo, hi)
+    }
+
+    fn finished(&self, rows: u32, cols: std::ops::Range<usize>) -> bool {
+        self.0.finished(rows, cols)
     }
 
     fn cover(&mut self, row: usize, lo: usize, hi: usize) {
@@ -945,36 +965,33 @@ fn render_with(
     let avx2 = tuning.avx2;
     #[cfg(not(target_arch = "x86_64"))]
     let avx2 = false;
-    let (mut samples, mut image) = (0u64, Intermediate::new(&f, table.as_ref(), avx2));
-    match &mut image {
-        Intermediate::Mip(m) => {
-            samples += m
-                .par_iter_mut()
-                .enumerate()
-                .map(|(band, acc)| shear_as(tuning, &shear_job(None), band * BAND, acc))
-                .sum::<u64>();
-        }
-        Intermediate::Composite(c) => {
-            samples += c
-                .par_iter_mut()
-                .enumerate()
-                .map(|(band, acc)| {
-                    fill_stretches(scene, &f, band * BAND, y_ortho, acc);
-                    let job = shear_job(table.as_ref());
-                    if acc.table.stretch.is_some() {
-                        shear_as(tuning, &job, band * BAND, &mut LookedUpAlpha(acc))
-                    } else {
-                        shear_as(tuning, &job, band * BAND, acc)
-                    }
-                })
-                .sum::<u64>();
-        }
-    }
+    let mut image = Intermediate::new(&f, table.as_ref(), avx2);
+    let sheared: Sheared = match &mut image {
+        Intermediate::Mip(m) => m
+            .par_iter_mut()
+            .enumerate()
+            .map(|(band, acc)| shear_as(tuning, &shear_job(None), band * BAND, acc))
+            .sum(),
+        Intermediate::Composite(c) => c
+            .par_iter_mut()
+            .enumerate()
+            .map(|(band, acc)| {
+                fill_stretches(scene, &f, band * BAND, y_ortho, acc);
+                let job = shear_job(table.as_ref());
+                if acc.table.stretch.is_some() {
+                    shear_as(tuning, &job, band * BAND, &mut LookedUpAlpha(acc))
+                } else {
+                    shear_as(tuning, &job, band * BAND, acc)
+                }
+            })
+            .sum(),
+    };
     let (img, hits) = warp(tuning, &setup, &f, &image, opts, vopts);
     let stats = RenderStats {
         rays: opts.width as u64 * opts.height as u64,
         hits,
-        voxels_visited: samples,
+        voxels_visited: sheared.samples,
+        bricks_skipped: sheared.passed,
         render_ms: start.elapsed().as_secs_f64() * 1e3,
         shear_warp: true,
         ..RenderStats::default()
@@ -1077,7 +1094,7 @@ enum Gather {
 
 /// Takes every slice's samples for the intermediate rows `j0..` of `acc`,
 /// front to back; returns the samples taken.
-fn shear_as<A: Accumulate>(tuning: Tuning, job: &Shear, j0: usize, acc: &mut A) -> u64 {
+fn shear_as<A: Accumulate>(tuning: Tuning, job: &Shear, j0: usize, acc: &mut A) -> Sheared {
     #[cfg(target_arch = "x86_64")]
     if tuning.avx2 && tuning.avx512 {
         // SAFETY: both are set only where detected.
@@ -1096,7 +1113,7 @@ fn shear_as<A: Accumulate>(tuning: Tuning, job: &Shear, j0: usize, acc: &mut A) 
 /// 16 lanes, with the AVX-512 kernels inlined.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,avx512f")]
-fn shear_avx512<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
+fn shear_avx512<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> Sheared {
     shear(job, j0, acc)
 }
 
@@ -1105,13 +1122,13 @@ fn shear_avx512<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
 /// contracts `a·b + c`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn shear_avx2<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
+fn shear_avx2<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> Sheared {
     shear(job, j0, acc)
 }
 
 /// The body of [`shear_as`], inlined into each of its compilations.
 #[inline(always)]
-fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
+fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> Sheared {
     let Shear {
         scene,
         f,
@@ -1173,7 +1190,7 @@ fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
     let mut next: Option<Layer> = None;
     let mut live_next = live.clone();
     let (mut ahead, mut ahead_at, mut ahead_per_row) = (Vec::new(), 0, 0);
-    let mut samples = 0;
+    let (mut samples, mut passed, mut passed_next) = (0, 0, 0);
     for q in 0..f.n {
         let k = f.front + q * f.step;
         let (s, _, tb) = f.slice(k);
@@ -1188,11 +1205,12 @@ fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
                 _ => (Layer::of(f, j0, rows, k), false),
             };
             if ahead_known {
-                // Compositing's live bricks depend on the layer and the
-                // table alone: those found for the prefetch.
+                // Compositing: the live bricks found for the prefetch (by
+                // the layer, the table and the pixels terminated then).
                 live.copy_from_slice(&live_next);
+                passed += passed_next;
             } else if skip {
-                mark_live(job, acc, &extent, &mut live, &mut floor);
+                passed += mark_live(job, acc, &extent, &mut live, &mut floor);
             }
             brick_rows.fill(None);
             runs.clear();
@@ -1220,9 +1238,10 @@ fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
             if table.is_some() && (0..f.dims[f.c]).contains(&k_next) {
                 let l = Layer::of(f, j0, rows, k_next);
                 live_next.fill(true);
+                passed_next = 0;
                 if skip {
                     // (`floor` is scratch here.)
-                    mark_live(job, acc, &l, &mut live_next, &mut floor);
+                    passed_next = mark_live(job, acc, &l, &mut live_next, &mut floor);
                 }
                 bricks_ahead(scene, f, &l, &live_next, &mut ahead);
                 next = Some(l);
@@ -1305,7 +1324,26 @@ fn shear<A: Accumulate>(job: &Shear, j0: usize, acc: &mut A) -> u64 {
         }
     }
     SLAB_BUFFER.set(slab.vals);
-    samples
+    Sheared { samples, passed }
+}
+
+/// What the shear of a band counts.
+#[derive(Clone, Copy, Default)]
+struct Sheared {
+    /// Samples taken.
+    samples: u64,
+    /// Bricks along `a` of the band's layers that some column reads but
+    /// skipping passed over (their samples could change no pixel).
+    passed: u64,
+}
+
+impl std::iter::Sum for Sheared {
+    fn sum<I: Iterator<Item = Sheared>>(iter: I) -> Sheared {
+        iter.fold(Sheared::default(), |a, b| Sheared {
+            samples: a.samples + b.samples,
+            passed: a.passed + b.passed,
+        })
+    }
 }
 
 /// Marks the bricks along `a` of `layer` that a pixel of the band may
@@ -1322,9 +1360,10 @@ fn live_bricks(
     layer: &Layer,
     live: &mut [bool],
     keep: impl Fn(f32, f32, std::ops::Range<usize>) -> bool,
-) {
+) -> u64 {
     let bricks = scene.bricks();
     let ranges = bricks.ranges();
+    let mut passed = 0;
     let mut at = IVec3::ZERO;
     at[f.c] = layer.k_lo >> 3;
     for (t, live) in live.iter_mut().enumerate() {
@@ -1354,30 +1393,39 @@ fn live_bricks(
         }
         let (lo, hi) = widened(bottom, top, mag);
         *live = keep(lo, hi, c0..c1);
+        passed += u64::from(!*live);
     }
+    passed
 }
 
 /// Marks `layer`'s live bricks along `a` in `live` (and leaves it alone
-/// for an accumulator every sample may change), with `floor` as scratch.
+/// for an accumulator every sample may change), with `floor` as scratch;
+/// returns the bricks some column reads that are passed over.
 fn mark_live<A: Accumulate>(
     job: &Shear,
     acc: &A,
     layer: &Layer,
     live: &mut [bool],
     floor: &mut [f32],
-) {
+) -> u64 {
     let (scene, f, columns) = (job.scene, job.f, job.columns);
     if let Some(t) = job.table {
         // Compositing: a brick whose samples the table makes transparent
-        // adds exactly nothing (`α = 0`).
-        live_bricks(scene, f, columns, layer, live, |lo, hi, _| !t.clear(lo, hi));
+        // adds exactly nothing (`α = 0`), nor does one whose every reading
+        // pixel has terminated (so far: the set only grows, and a brick
+        // found live here may turn out not to be).
+        live_bricks(scene, f, columns, layer, live, |lo, hi, cols| {
+            !t.clear(lo, hi) && !acc.finished(layer.rows, cols)
+        })
     } else if acc.floor(layer.rows, floor) {
         // MIP: live unless the bound is at most the floor (a NaN bound,
         // from infinite samples, keeps the brick).
         live_bricks(scene, f, columns, layer, live, |_, hi, cols| {
             let low = floor[cols].iter().fold(f32::INFINITY, |m, &x| m.min(x));
             !matches!(hi.partial_cmp(&low), Some(Ordering::Less | Ordering::Equal))
-        });
+        })
+    } else {
+        0
     }
 }
 
@@ -3127,6 +3175,9 @@ mod tests {
         // inside, the blobs' tails) and with a gap: values from 0.25 to
         // 0.5 are clear too, so bricks of middling values go as well.
         let gap = TransferFunction::parse("0.05:0,0.2:0.3,0.25:0,0.5:0,0.55:0.6,1.2:0.9").unwrap();
+        // Nothing clear and every sample nearly opaque: rays terminate
+        // within a few slices, and bricks only terminated pixels read go.
+        let opaque = TransferFunction::parse("-1:0.95,2:1").unwrap();
         let modes = [
             opts(VolumeMethod::ShearWarp, VolumeMode::Mip, window),
             opts(VolumeMethod::ShearWarp, VolumeMode::Composite, window),
@@ -3134,9 +3185,13 @@ mod tests {
                 transfer: gap,
                 ..opts(VolumeMethod::ShearWarp, VolumeMode::Composite, window)
             },
+            VolumeOptions {
+                transfer: opaque,
+                ..opts(VolumeMethod::ShearWarp, VolumeMode::Composite, window)
+            },
         ];
         for (m, o) in modes.iter().enumerate() {
-            let (mut all, mut taken) = (0u64, 0u64);
+            let (mut all, mut taken, mut passed) = (0u64, 0u64, 0u64);
             for t in 0..24 {
                 let cam = random_camera(&mut rng, c, 130.0..260.0, t % 2 == 0, 140.0, 50.0);
                 let tuning = |skip: bool, slab_cap: usize| Tuning {
@@ -3154,13 +3209,23 @@ mod tests {
                 else {
                     continue;
                 };
+                assert_eq!(st.bricks_skipped, 0);
                 for cap in [SLAB_CAP, 0] {
                     let (img, sk) = render_with(&s, &cam, &ro, o, tuning(true, cap))
                         .unwrap()
                         .unwrap();
                     assert_eq!(img, every, "mode {m} {cam:?} cap {cap}");
                     (all, taken) = (all + st.voxels_visited, taken + sk.voxels_visited);
+                    passed += sk.bricks_skipped;
                 }
+            }
+            if m == 3 {
+                // Terminated pixels take no sample either way: the samples
+                // are the same, and the bricks passed over are the ones
+                // only such pixels read (none is clear).
+                assert_eq!(taken, all, "mode {m}");
+                assert!(passed > 100, "mode {m}: {passed} bricks passed over");
+                continue;
             }
             // The test sees skipping at work. MIP: a twelfth of the samples
             // or more go (a band's floor is the lowest of its 32 rows', and
