@@ -300,8 +300,7 @@ impl TfTable {
     }
 
     /// The table for a view whose every pixel has the stretch `y`: each
-    /// entry's `α = corrected_opacity_from_log(τ, ln(1 − τ), y)` found
-    /// once, by the operations [`CompositeBand::blend`] would apply to
+    /// entry's `α` ([`entry_alpha`]) found once, by the operations [`CompositeBand::blend`] would apply to
     /// every sample taking the entry, so the same bits, and the
     /// exponential leaves the blend.
     fn for_stretch(mut self, y: f32) -> TfTable {
@@ -790,8 +789,7 @@ impl Accumulate for CompositeBand<'_> {
     /// Done chunks take no sample ([`CompositeBand::add_runs`] passes
     /// them over), and a chunk once done stays done.
     fn finished(&self, rows: u32, cols: std::ops::Range<usize>) -> bool {
-        let n_rows = self.done.len() / self.w.div_ceil(CHUNK).max(1);
-        (0..n_rows)
+        (0..self.q.len() / self.w)
             .filter(|r| rows >> r & 1 == 1)
             .all(|r| !self.live(r, cols.start, cols.end))
     }
@@ -1093,7 +1091,7 @@ enum Gather {
 }
 
 /// Takes every slice's samples for the intermediate rows `j0..` of `acc`,
-/// front to back; returns the samples taken.
+/// front to back; returns the samples taken and the bricks passed over.
 fn shear_as<A: Accumulate>(tuning: Tuning, job: &Shear, j0: usize, acc: &mut A) -> Sheared {
     #[cfg(target_arch = "x86_64")]
     if tuning.avx2 && tuning.avx512 {
@@ -1352,7 +1350,8 @@ impl std::iter::Sum for Sheared {
 /// columns `cols` that read it on the layer's slices (a brick no column
 /// reads is passed over). A sample is a lerp of two lerps of voxels of the
 /// brick grown by one (`BrickRange::min[1]`, `max[1]`), so it lies in that
-/// range [`widened`] by the lerps' rounding.
+/// range [`widened`] by the lerps' rounding. Returns the bricks some
+/// column reads that `keep` passed over.
 fn live_bricks(
     scene: &VolumeScene,
     f: &Factor,
