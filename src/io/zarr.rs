@@ -32,7 +32,7 @@
 //! zarrs' own decoder reads what this writes (tests compare).
 //!
 //! A whole store ([`write`]) is built in a temporary directory beside the
-//! target and renamed into place. Tiles ([`write_tile_shards`]) write into a
+//! target and renamed into place. Tiles ([`write_shards`]) write into a
 //! store whose metadata [`create`] wrote once: tiles are whole shards, so
 //! two tiles never write the same object and re-running a tile replaces its
 //! shards by identical content.
