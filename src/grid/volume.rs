@@ -444,9 +444,20 @@ impl VolumeFrame {
                 shown()
             )));
         }
+        if let Some(k) = cols.iter().position(|c| *c == DVec3::ZERO) {
+            // Named apart: the ratio below would read 0/0 = NaN.
+            return Err(VoxkitError::invalid(format!(
+                "volume axes {} are singular: the {} axis ({}) has zero length (its \
+                 spacing or direction is 0)",
+                shown(),
+                ["first", "second", "third"][k],
+                ["i", "j", "k"][k],
+            )));
+        }
         let norms: f64 = cols.iter().map(|c| c.length()).product();
         let ratio = self.axes.determinant().abs() / norms;
-        // A zero column gives 0/0 = NaN, which fails the comparison.
+        // A column too short for its length to square gives 0/0 = NaN,
+        // which fails the comparison.
         let well_conditioned = ratio >= Self::MIN_CONDITION; // false for NaN
         if !well_conditioned || !self.axes.inverse().is_finite() {
             return Err(VoxkitError::invalid(format!(
@@ -1033,6 +1044,15 @@ mod tests {
             // Extreme numbers in exponent form, not hundreds of digits.
             assert!(msg.len() < 300 && !msg.contains("00000000"), "{msg}");
         }
+        // A zero axis is named, not reported as a ratio of NaN.
+        let msg = VolumeFrame::from_spacing(DVec3::ZERO, DVec3::new(1.0, -0.0, 1.0))
+            .validate()
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("singular: the second axis (j) has zero length") && !msg.contains("NaN"),
+            "{msg}"
+        );
         // Negative spacing is a mirror, not an error.
         let m = VolumeFrame::from_spacing(DVec3::ONE, DVec3::new(-2.0, 1.0, 0.5));
         m.validate().unwrap();
