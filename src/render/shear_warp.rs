@@ -300,9 +300,9 @@ impl TfTable {
     }
 
     /// The table for a view whose every pixel has the stretch `y`: each
-    /// entry's `α` ([`entry_alpha`]) found once, by the operations [`CompositeBand::blend`] would apply to
-    /// every sample taking the entry, so the same bits, and the
-    /// exponential leaves the blend.
+    /// entry's `α` ([`entry_alpha`]) found once, by the operations
+    /// [`CompositeBand::blend`] would apply to every sample taking the
+    /// entry, so the same bits, and the exponential leaves the blend.
     fn for_stretch(mut self, y: f32) -> TfTable {
         for e in &mut self.entries {
             e[0] = entry_alpha(e[0], y);
@@ -789,7 +789,8 @@ impl Accumulate for CompositeBand<'_> {
     /// Done chunks take no sample ([`CompositeBand::add_runs`] passes
     /// them over), and a chunk once done stays done.
     fn finished(&self, rows: u32, cols: std::ops::Range<usize>) -> bool {
-        (0..self.q.len() / self.w)
+        // (`checked_div`: a band of no columns has no rows to test.)
+        (0..self.q.len().checked_div(self.w).unwrap_or(0))
             .filter(|r| rows >> r & 1 == 1)
             .all(|r| !self.live(r, cols.start, cols.end))
     }
