@@ -399,7 +399,7 @@ const MAX_FRAMES: u32 = 3;
 
 /// The render camera. Text input is the argument list of `voxkit render
 /// in.binvox -o out.png` (words split at whitespace) through clap and the
-/// command's own camera set-up ([`crate::cli::render`]), rendered at most
+/// command's own camera set-up (`cli::render`), rendered at most
 /// 8×8 of a tiny fixed grid (or, with `--volume`, a tiny scalar volume);
 /// input starting with byte `0xFF` is a list of `f64`s for the camera
 /// constructors directly. A camera the command accepts must render an image

@@ -9,7 +9,7 @@
 //! | [`grid`] | dense grid with pointer-offset stepping, bit grid, world↔grid frame |
 //! | [`fixed`] | fixed-point sub-voxel coordinates |
 //! | [`guard`] | panic containment at reader boundaries: a dependency's panic becomes a typed error |
-//! | [`line`] | 3D lines (26, 18, tripod 6, Amanatides–Woo, adaptive) and 2D lines |
+//! | [`line`](mod@line) | 3D lines (26, 18, tripod 6, Amanatides–Woo, adaptive) and 2D lines |
 //! | [`metric`] | the discrete distances d6, d18, d26 |
 //! | [`render`] | the discrete ray caster: 6 / 26 / adaptive / Amanatides–Woo rays, empty-space skipping |
 //! | [`report`] | speed against error: the line measurements `voxkit demo` prints, and the full report `voxkit report` writes |

@@ -127,7 +127,8 @@ pub struct RenderArgs {
     /// Value window LO,HI mapped to black..white (default: the data's 1% and 99.5% percentiles).
     #[arg(long, value_name = "LO,HI", value_parser = parse_window, allow_hyphen_values = true)]
     pub window: Option<(f32, f32)>,
-    /// Transfer function for compositing: value:opacity[:#rrggbb] points, comma-separated
+    /// Transfer function for compositing: value:opacity points, each with an optional
+    /// :#rrggbb colour, comma-separated
     /// (default: a linear opacity ramp over the window).
     #[arg(long, value_name = "V:O[:#RRGGBB],...", allow_hyphen_values = true)]
     pub tf: Option<String>,

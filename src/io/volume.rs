@@ -20,7 +20,7 @@
 //!   `space directions` (any invertible 3×3, `none` entries unsupported) or
 //!   `spacings`, and `space origin`; `space`/`space dimension` for 3-D
 //!   spaces (RAS, LAS and LPS kept as the volume's
-//!   [`AnatomicalSpace`](crate::grid::AnatomicalSpace), which orients the
+//!   [`AnatomicalSpace`], which orients the
 //!   default view); `line skip`; `byte skip` (≥ 0, or −1 = "the data ends the
 //!   file", raw only; for gzip and bzip2 it skips decompressed bytes, as the NRRD
 //!   format says); `data file` as one file, `LIST [subdim]` or

@@ -31,7 +31,7 @@
 //! whose voxels are all 0 is removed (Zarr's "missing = fill value").
 //! zarrs' own decoder reads what this writes (tests compare).
 //!
-//! A whole store ([`write`]) is built in a temporary directory beside the
+//! A whole store ([`write`](fn@write)) is built in a temporary directory beside the
 //! target and renamed into place. Tiles ([`write_shards`]) write into a
 //! store whose metadata [`create`] wrote once: tiles are whole shards, so
 //! two tiles never write the same object and re-running a tile replaces its
@@ -39,7 +39,7 @@
 //!
 //! # Reading
 //! [`read`] visits the shards present, in parallel. A store laid out as
-//! [`write`] lays it out (the same codecs and shapes) is read the way it was
+//! [`write`](fn@write) lays it out (the same codecs and shapes) is read the way it was
 //! written: the shard's index decoded by the same chain (its crc32c
 //! checked), then only the inner chunks it lists, each decoded on its own
 //! and turned into bricks, so memory is the compressed shard plus one 64³
@@ -215,7 +215,7 @@ fn open_store(root: &Path) -> Result<Arc<FilesystemStore>> {
 /// Writes the metadata of a store for `frame` with `levels` levels into the
 /// directory `root` (created if missing): the group `zarr.json` and each
 /// level's array `zarr.json`. Shards are not touched. Tiled runs call this
-/// once, before any tile ([`write_tile_shards`] never writes metadata).
+/// once, before any tile ([`write_shards`] never writes metadata).
 pub fn create(root: &Path, frame: &GridFrame, levels: u32, tile_size: Option<u64>) -> Result<()> {
     super::voxels::check_frame(frame)?;
     std::fs::create_dir_all(root).map_err(|source| VoxkitError::Io {
@@ -810,7 +810,7 @@ fn read_level_unguarded(
 /// voxel by voxel.
 type ShardVoxels = (Vec<(Voxel, BrickMask)>, BrickGrid);
 
-/// Whether `array` is stored the way [`write`] stores it (the codecs of
+/// Whether `array` is stored the way [`write`](fn@write) stores it (the codecs of
 /// `ours`, the array [`level_array`] describes): then its shards are read
 /// by [`read_own_shard`], one listed inner chunk at a time.
 fn own_layout(array: &Array<FilesystemStore>, ours: &Array<FilesystemStore>) -> bool {
@@ -827,7 +827,7 @@ fn own_layout(array: &Array<FilesystemStore>, ours: &Array<FilesystemStore>) -> 
 /// inner chunk, then the crc32c checksum.
 const INDEX_BYTES: usize = CHUNKS_PER_SHARD * CHUNKS_PER_SHARD * CHUNKS_PER_SHARD * 16 + 4;
 
-/// Reads one shard that [`write`] wrote (`file`, shard `s`), handing each
+/// Reads one shard that [`write`](fn@write) wrote (`file`, shard `s`), handing each
 /// inner chunk its index lists to `take` (origin z, y, x; shape; bytes):
 /// the index's checksum is checked and every listed range must lie inside
 /// the file, so a torn or damaged shard is an error naming it, never a
@@ -936,7 +936,7 @@ fn decode_chunk(
 }
 
 /// Random access to the 64³ inner chunks of one level of a store laid out
-/// as [`write`] lays it out, for readers that decode only what they need
+/// as [`write`](fn@write) lays it out, for readers that decode only what they need
 /// (the renderer's [`PagedOccupancy`](crate::render::PagedOccupancy)):
 /// every shard's index is read once when opened (the file's tail only, in
 /// parallel), so which chunks hold voxels is known before any is decoded;

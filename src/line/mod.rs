@@ -12,7 +12,7 @@
 //! `TripodState`) over an integer type chosen once per segment (`i64` when the
 //! segment is shorter than 2^20 voxels per axis, `i128` otherwise; see
 //! [`segment`]), wrapped by an iterator and by a grid walk ([`walk_mut`],
-//! [`walk`]) that clips once and moves a linear index by neighbour offsets.
+//! [`walk`](fn@walk)) that clips once and moves a linear index by neighbour offsets.
 //!
 //! Conventions: voxel = closed unit cube centred on an integer point; a point
 //! `p` lies in voxel `floor(p + 1/2)`. Ties (lines through voxel edges and

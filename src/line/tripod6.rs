@@ -362,7 +362,7 @@ impl Iterator for Tripod6 {
 
     /// Internal iteration: one tight loop, the `i64`/`i128` choice made
     /// once; with AVX2, the columns of a narrow line run eight at a time
-    /// ([`super::lanes::tripod_voxels`]; the voxels are the same).
+    /// (`lanes::tripod_voxels`; the voxels are the same).
     #[inline]
     fn fold<B, G: FnMut(B, IVec3) -> B>(self, init: B, mut g: G) -> B {
         let mut acc = init;

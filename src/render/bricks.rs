@@ -17,7 +17,7 @@
 //! `float32`'s range become `±∞`, counted as they narrow:
 //! [`VolumeBricks::narrowed_to_infinity`], which `voxkit render` and the Python
 //! `render` report in a warning). A sample is read as
-//! `f32` ([`Stored::value`]): integers convert exactly up to 2²⁴ and round to
+//! `f32` (`Stored::value`): integers convert exactly up to 2²⁴ and round to
 //! nearest beyond; NaN is stored as `−∞` (it never holds a maximum, never
 //! reaches an iso value).
 //!

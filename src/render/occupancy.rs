@@ -139,7 +139,7 @@ impl RenderBricks for OccupancyGrid {
 }
 
 /// Occupancy, proximity flags, colours and the brick proximity cloud of a
-/// voxel grid, for rendering (see the [module docs](self)).
+/// voxel grid, for rendering (the layout is described in `render/occupancy.rs`).
 #[derive(Clone, Debug)]
 pub struct OccupancyGrid {
     pub(crate) dims: [i32; 3],
@@ -409,7 +409,7 @@ impl OccupancyGrid {
     }
 
     /// The smooth normal at occupied voxel `v` (a plane fitted to the
-    /// surface voxels within 3 of it, [`super::normal`]), unit length and
+    /// surface voxels within 3 of it, `render::normal`), unit length and
     /// facing `toward` (grid space).
     pub fn smooth_normal(&self, v: Voxel, toward: glam::DVec3) -> glam::DVec3 {
         super::normal::Moments::around(v, |b| self.occupancy_mask(b)).normal(toward)

@@ -104,7 +104,7 @@ pub struct PagedBrick<'a> {
 }
 
 /// A voxel store's render structure, read chunk by chunk as rays reach it
-/// (see the [module docs](self)).
+/// (the scheme is described in `render/paged.rs`).
 pub struct PagedOccupancy {
     reader: ChunkReader,
     dims: [i32; 3],

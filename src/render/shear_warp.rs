@@ -49,7 +49,7 @@
 //! thread count, so images are identical for any number of threads.
 //!
 //! Iso-surfaces, and perspective views whose eye lies inside the volume's
-//! box, have no factorization here: [`render`] returns `None` and the
+//! box, have no factorization here: its `render` returns `None` and the
 //! caller casts rays.
 
 use std::cmp::Ordering;

@@ -11,7 +11,7 @@
 //! | [`scanline`] | exact scanline spans (Petridis; classic active-edge filling) |
 //! | `interp` | barycentric interpolation, flat / Gouraud shading, painter's order, z-buffer |
 //! | `inside` | batched point-in-triangle tests (qTriangle cross-product form), auto-vectorized |
-//! | `render_mesh` | [`render_mesh`]: 3D mesh → clipped, z-buffered, Gouraud-shaded image |
+//! | `render_mesh` | [`render_mesh`](fn@render_mesh): 3D mesh → clipped, z-buffered, Gouraud-shaded image |
 //!
 //! Screen conventions (all rasterizers): y down, pixel `(x, y)` sampled at
 //! its centre `(x + ½, y + ½)`, vertices in sub-pixel fixed point with

@@ -13,7 +13,7 @@
 //! computed relative to a lattice point next to the triangle (an exact integer
 //! translation), so edge-axis projections need at most 106 bits (`i128`). The
 //! normal-axis projection needs up to ~160 bits for triangles spanning more
-//! than 2^19 voxels; those take an exact 192-bit path ([`Wide`]), smaller
+//! than 2^19 voxels; those take an exact 192-bit path (`Wide`), smaller
 //! triangles a plain `i128` path. Degenerate triangles need no special case:
 //! for a segment (collinear vertices) or a point (coincident vertices) the
 //! normal and some cross products vanish, a zero axis separates nothing, and the

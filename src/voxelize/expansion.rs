@@ -146,7 +146,7 @@ impl LocalExpansion {
     }
 }
 
-/// Multipoles per call of the translation kernel ([`m2l_terms`]).
+/// Multipoles per call of the translation kernel (`m2l_terms`).
 pub const M2L_LANES: usize = 4;
 
 /// What [`LocalExpansion::add_multipole`] adds for each of [`M2L_LANES`]

@@ -371,11 +371,11 @@ pub struct SolidStats {
     pub straddling: u64,
     /// Centres of refined bricks decided from one value per 2³ cube and
     /// the rim's gradient bound (where the caps are large, see
-    /// [`LARGE_CAP_AREA`]), without their own near-field sum.
+    /// `LARGE_CAP_AREA`), without their own near-field sum.
     pub gradient_centres: u64,
     /// Centres of refined bricks decided from a second-order Taylor
     /// expansion of the mesh's own winding number about one centre of
-    /// their 4³ box ([`Classifier::centres_by_taylor`]), without far or
+    /// their 4³ box (`Classifier::centres_by_taylor`), without far or
     /// near field of their own.
     pub taylor_centres: u64,
     /// Wall time (µs) finding the boundary and the caps over it, with the
