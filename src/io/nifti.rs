@@ -10,7 +10,8 @@
 //!   by method 1 (its bytes where NIfTI keeps orientation codes mean
 //!   other things);
 //! - `dim`: 1 to 7 axes, the first three spatial; axes beyond the third
-//!   must have size 1 (a time series is [`VoxkitError::Unsupported`](crate::VoxkitError::Unsupported));
+//!   must have size 1 (a time series is
+//!   [`VoxkitError::Unsupported`](crate::VoxkitError::Unsupported));
 //! - `datatype` `UINT8` … `FLOAT64` (the eight [`ScalarType`]s), and
 //!   `INT64`/`UINT64` held in the narrowest type that holds every sample
 //!   exactly; the rest (binary, complex, RGB, `float128`) are unsupported;

@@ -75,7 +75,8 @@
 //!
 //! A Chebyshev distance transform over the bricks (Cohen & Sheffer's
 //! proximity clouds) lets a ray jump, in O(1) (the line core's `jump`,
-//! [`AwStepper::jump_past_box`](crate::line::amanatides_woo::AwStepper::jump_past_box)), the whole box of skippable bricks around
+//! [`AwStepper::jump_past_box`](crate::line::amanatides_woo::AwStepper::jump_past_box)),
+//! the whole box of skippable bricks around
 //! its brick; the adaptive ray in 26 mode jumps only boxes of unflagged
 //! bricks (where stepping would stay in 26 mode). MIP also jumps, from a
 //! brick whose maximum does not exceed the running maximum, the largest

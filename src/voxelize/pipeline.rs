@@ -43,7 +43,8 @@
 //! *Solid* is the thin surface ∪ the voxel centres inside by the chosen
 //! [`InsideTest`]: by default the generalized winding number `w ≥ ½`, which
 //! degrades gracefully on holes, flipped faces, duplicated sheets and
-//! overlapping copies ([`solid_interior`](crate::voxelize::solid::solid_interior): exact signed crossings of the mesh
+//! overlapping copies ([`solid_interior`](crate::voxelize::solid::solid_interior):
+//! exact signed crossings of the mesh
 //! closed by caps over its holes, plus the caps' winding number from a
 //! Barnes–Hut tree with rigorous error bounds, decided by regions); or exact
 //! crossing parity for watertight meshes. On a closed, consistently
@@ -694,8 +695,9 @@ pub fn prepare_mesh<'a>(mesh: &'a Mesh, opts: &'a VoxelizeOptions) -> Result<Pre
 /// The surface of `mode`: with `kahan_kelsen` (snapped vertices only) by
 /// Kahan–Kelsen indexing ([`voxelize_snapped`], work split evenly by a
 /// prefix sum over the projected triangles' point counts), otherwise by the
-/// lattice-line crossing kernel ([`voxelize_surface`](crate::voxelize::surface::voxelize_surface)). Both give the same
-/// voxels on snapped input.
+/// lattice-line crossing kernel
+/// ([`voxelize_surface`](crate::voxelize::surface::voxelize_surface)). Both
+/// give the same voxels on snapped input.
 pub(crate) fn surface_bricks(
     triangles: &[SurfaceTriangle],
     dims: [i32; 3],

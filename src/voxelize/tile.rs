@@ -2,7 +2,8 @@
 //! whole-grid run makes there.
 //!
 //! A tiled run fixes the lattice and the grid first (`--voxel-size H
-//! --origin X,Y,Z` fitted over the mesh, [`Lattice::fit`](crate::voxelize::pipeline::Lattice::fit)) and cuts the grid
+//! --origin X,Y,Z` fitted over the mesh,
+//! [`Lattice::fit`](crate::voxelize::pipeline::Lattice::fit)) and cuts the grid
 //! into cubes of `tile_size` voxels (a multiple of 512 in a store, so that a
 //! tile is a whole number of Zarr shards; any multiple of 8 here). The mesh is quantized in the *whole* grid's
 //! frame (the same fixed-point vertices, clamped to the same box), and then
