@@ -123,10 +123,10 @@ impl<'g, G: RenderBricks> Visitor for FirstHit<'g, G> {
     const PER_VOXEL: bool = true;
 
     #[inline(always)]
-    fn voxel(&mut self, (at, _): Self::Brick, v: IVec3, li: usize) -> bool {
+    fn voxel(&mut self, (at, _): Self::Brick, li: usize, v: impl FnOnce() -> IVec3) -> bool {
         let hit = self.occ.flags(at).occ[li >> 6] >> (li & 63) & 1 == 1;
         if hit {
-            self.hit = Some(v);
+            self.hit = Some(v());
         }
         hit
     }

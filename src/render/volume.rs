@@ -649,12 +649,15 @@ pub fn differing_values(a: &RenderImage, b: &RenderImage) -> u64 {
 
 /// Per brick, per frame: proximity-cloud distances (in bricks) to the
 /// nearest brick that is not skippable (`skip`) and to the nearest flagged
-/// brick (`flag`; 0: this brick is flagged). Without skipping both are only
-/// 0 or 1.
+/// brick (`flag`; 0: this brick is flagged), and the brick's largest sample
+/// as the frame samples (`max`, which the MIP's running maximum is held
+/// against: in the cache line the ray reads on entering the brick, not one
+/// more of the ranges'). Without skipping both distances are only 0 or 1.
 #[derive(Clone, Copy, Debug, Default)]
 struct BrickClass {
     skip: u8,
     flag: u8,
+    max: f32,
 }
 
 /// Everything a frame's rays share.
@@ -665,8 +668,6 @@ struct FrameCtx<'a> {
     setup: RaySetup,
     class: Vec<BrickClass>,
     dims: [i32; 3],
-    /// Brick ranges index: 0 nearest, 1 trilinear.
-    r: usize,
     /// MIP with skipping: per level `l ≥ 1`, the blocks' extents (in
     /// blocks) and the largest sample over each block of `2^l` bricks per
     /// side.
@@ -713,7 +714,12 @@ impl<'a> FrameCtx<'a> {
             };
             skip.into_iter()
                 .zip(flag)
-                .map(|(skip, flag)| BrickClass { skip, flag })
+                .zip(bricks)
+                .map(|((skip, flag), b)| BrickClass {
+                    skip,
+                    flag,
+                    max: b.max[r],
+                })
                 .collect()
         } else {
             bricks
@@ -721,6 +727,7 @@ impl<'a> FrameCtx<'a> {
                 .map(|b| BrickClass {
                     skip: 0,
                     flag: u8::from(quiet(b, r + 1)),
+                    max: b.max[r],
                 })
                 .collect()
         };
@@ -748,7 +755,6 @@ impl<'a> FrameCtx<'a> {
             setup,
             class,
             dims,
-            r,
             pyramid,
             tiles,
             table,
@@ -888,6 +894,12 @@ trait Accum {
     /// Takes a visited voxel's sample and stretch length (world units);
     /// `true` ends the ray.
     fn visit(&mut self, v: IVec3, s: f32, len: f64) -> bool;
+    /// [`Accum::visit`] of a sample without a stretch, its voxel found by
+    /// `v` only where the accumulator keeps it.
+    #[inline(always)]
+    fn visit_nearest(&mut self, v: impl FnOnce() -> IVec3, s: f32) -> bool {
+        self.visit(v(), s, 0.0)
+    }
     /// Visits a run of voxels in order (`buf`'s world voxels, their
     /// samples and stretch lengths, zeros past `buf.len()`); `Some(i)` when
     /// voxel `i` ends the ray. Accumulators whose per-voxel arithmetic
@@ -929,9 +941,13 @@ impl Accum for Mip {
     const LEN: bool = false;
     #[inline(always)]
     fn visit(&mut self, v: IVec3, s: f32, _len: f64) -> bool {
+        self.visit_nearest(|| v, s)
+    }
+    #[inline(always)]
+    fn visit_nearest(&mut self, v: impl FnOnce() -> IVec3, s: f32) -> bool {
         if s > self.m {
             self.m = s;
-            self.hit = Some(v);
+            self.hit = Some(v());
         }
         false
     }
@@ -952,8 +968,12 @@ impl Accum for Iso {
     const LEN: bool = false;
     #[inline(always)]
     fn visit(&mut self, v: IVec3, s: f32, _len: f64) -> bool {
+        self.visit_nearest(|| v, s)
+    }
+    #[inline(always)]
+    fn visit_nearest(&mut self, v: impl FnOnce() -> IVec3, s: f32) -> bool {
         if s >= self.v {
-            self.hit = Some(v);
+            self.hit = Some(v());
             return true;
         }
         false
@@ -1212,10 +1232,10 @@ fn consume<A: Accum, const TRI: bool>(
     acc.visit_run(buf, &samples, &lens)
 }
 
-/// The box of world voxels (inclusive) a ray in brick `b` (index `bi`) may
-/// jump, if any: the bricks within `k − 1` of it (`k`: the brick's
-/// proximity-cloud value), or, where `dynamic` and the accumulator has a
-/// threshold (MIP) that the brick's samples do not exceed, the largest
+/// The box of world voxels (inclusive) a ray in brick `b` may jump, if
+/// any: the bricks within `k − 1` of it (`k`: the brick's proximity-cloud
+/// value), or, where `dynamic` and the accumulator has a threshold (MIP)
+/// that the brick's samples (at most `max`) do not exceed, the largest
 /// aligned block of `2^l` bricks per side around it whose samples do not
 /// exceed it either (the frame's max pyramid).
 #[inline(always)]
@@ -1223,7 +1243,7 @@ fn skip_box<A: Accum>(
     ctx: &FrameCtx,
     acc: &A,
     b: IVec3,
-    bi: usize,
+    max: f32,
     k: u8,
     dynamic: bool,
 ) -> Option<(IVec3, IVec3)> {
@@ -1236,7 +1256,7 @@ fn skip_box<A: Accum>(
     }
     if dynamic
         && let Some(m) = acc.threshold()
-        && ctx.scene.bricks.ranges()[bi].max[ctx.r] <= m
+        && max <= m
     {
         let mut l = 0;
         while let Some((dims, maxima)) = ctx.pyramid.get(l) {
@@ -1284,7 +1304,7 @@ impl<A: Accum, const TRI: bool> Visitor for VolumeVisit<'_, '_, A, TRI> {
     #[inline(always)]
     fn jump_box(
         &mut self,
-        (bi, class): Self::Brick,
+        (_, class): Self::Brick,
         b: IVec3,
         _: IVec3,
         in26: bool,
@@ -1293,7 +1313,7 @@ impl<A: Accum, const TRI: bool> Visitor for VolumeVisit<'_, '_, A, TRI> {
             return None;
         }
         let k = if in26 { class.flag } else { class.skip };
-        skip_box(self.ctx, self.acc, b, bi, k, !in26)
+        skip_box(self.ctx, self.acc, b, class.max, k, !in26)
     }
 
     /// Every brick not jumped is read; where rays read on through it,
@@ -1322,8 +1342,13 @@ impl<A: Accum, const TRI: bool> Visitor for VolumeVisit<'_, '_, A, TRI> {
     const PER_VOXEL: bool = !TRI && !A::LEN;
 
     #[inline(always)]
-    fn voxel(&mut self, _: Self::Brick, v: IVec3, i: usize) -> bool {
-        self.acc.visit(v, self.ctx.scene.bricks.value_at(i), 0.0)
+    fn voxel(&mut self, _: Self::Brick, i: usize, v: impl FnOnce() -> IVec3) -> bool {
+        self.acc.visit_nearest(v, self.ctx.scene.bricks.value_at(i))
+    }
+
+    #[inline(always)]
+    fn all_flagged(&self, (_, class): Self::Brick) -> bool {
+        class.flag == 0
     }
 
     #[inline(always)]
@@ -1439,7 +1464,8 @@ fn render_pixel<const TRI: bool>(
     let vo = ctx.vopts;
     // A culled tile's rays meet only skippable bricks: nothing to hit or
     // accumulate, so they end as a walk would leave them (a MIP ray inside
-    // the volume still shows the window's low end).
+    // the volume still shows the window's low end, which its running
+    // maximum starts at).
     let seen = ctx.tiles.may_see(x, y);
     n.culled += u64::from(!seen);
     if !seen && vo.mode != VolumeMode::Mip {
@@ -1447,6 +1473,10 @@ fn render_pixel<const TRI: bool>(
     }
     let (ray, seg) = ctx.setup.pixel(x, y);
     let Some(seg) = seg else { return MISS };
+    if !seen {
+        let gl = grey(vo.window.0, vo.window);
+        return ([gl, gl, gl, 1.0], f32::INFINITY, None);
+    }
     let g = RayGeom::new(&ray, ctx.dims);
     let depth = |v: IVec3| ray.entry(v).0 as f32;
     match vo.mode {
@@ -1456,7 +1486,7 @@ fn render_pixel<const TRI: bool>(
             // the start, and the first voxel holding the maximum still
             // raises the running maximum, so the pixel, its hit and its
             // depth are those of the walk from the window's low end.
-            let floor = if ctx.opts.skip && seen {
+            let floor = if ctx.opts.skip {
                 mip_hint_floor::<TRI>(ctx, &g, &seg, hints)
             } else {
                 f32::NEG_INFINITY
@@ -1469,9 +1499,7 @@ fn render_pixel<const TRI: bool>(
                 },
                 hit: None,
             };
-            if seen {
-                cast::<_, TRI>(ctx, &g, &seg, &mut acc, n);
-            }
+            cast::<_, TRI>(ctx, &g, &seg, &mut acc, n);
             let gl = grey(acc.m, vo.window);
             let d = acc.hit.map_or(f32::INFINITY, depth);
             ([gl, gl, gl, 1.0], d, acc.hit)

@@ -137,10 +137,17 @@ pub(crate) trait Visitor {
     /// a first hit: no run is buffered) rather than runs ([`Visitor::run`],
     /// whose reads overlap).
     const PER_VOXEL: bool = false;
-    /// Takes one voxel (world, storage index) as it is stepped, where
+    /// Takes one voxel (storage index, and its world voxel found by `v` only
+    /// where the visitor keeps it) as it is stepped, where
     /// [`Visitor::PER_VOXEL`]; `true` ends the ray at it.
     #[inline(always)]
-    fn voxel(&mut self, _brick: Self::Brick, _v: IVec3, _i: usize) -> bool {
+    fn voxel(&mut self, _brick: Self::Brick, _i: usize, _v: impl FnOnce() -> IVec3) -> bool {
+        false
+    }
+    /// Whether every voxel of the brick is flagged (an adaptive ray in 6
+    /// mode stays in it through the whole brick).
+    #[inline(always)]
+    fn all_flagged(&self, _brick: Self::Brick) -> bool {
         false
     }
     /// Takes a run of voxels in order; `Some(i)` when voxel `i` ends the ray.
@@ -170,6 +177,12 @@ pub(crate) trait Stepper {
     fn jump(&mut self, h: [i64; 3], c: [i64; 3]) -> Option<[i64; 3]>;
     /// Whether the ray is in a 26 stretch of the adaptive ray.
     fn in_26(&self) -> bool;
+    /// The tripod state where the ray steps as the 6-ray does through a
+    /// brick whose voxels are all flagged (or whose flags it does not read).
+    #[inline(always)]
+    fn tripod(&mut self) -> Option<&mut TripodState<i64>> {
+        None
+    }
 }
 
 /// The tripod 6-ray on its bare decision variables.
@@ -194,6 +207,10 @@ impl Stepper for Six {
     #[inline(always)]
     fn in_26(&self) -> bool {
         false
+    }
+    #[inline(always)]
+    fn tripod(&mut self) -> Option<&mut TripodState<i64>> {
+        Some(&mut self.s)
     }
 }
 
@@ -275,6 +292,11 @@ impl Stepper for Adaptive<'_> {
     #[inline(always)]
     fn in_26(&self) -> bool {
         self.twenty_six
+    }
+    /// In 6 mode: a flagged voxel keeps the ray there.
+    #[inline(always)]
+    fn tripod(&mut self) -> Option<&mut TripodState<i64>> {
+        (!self.twenty_six).then_some(&mut self.tri)
     }
 }
 
@@ -480,6 +502,19 @@ fn walk<S: Stepper, V: Visitor>(f: &Frame, mut s: S, vis: &mut V, n: &mut CastCo
         let reads = vis.reads(brick);
         // The storage index moves by per-mask offsets inside the brick.
         let mut i = base + local_index(v);
+        if V::PER_VOXEL
+            && reads
+            && (!S::READS_FLAGS || vis.all_flagged(brick))
+            && let Some(tri) = s.tripod()
+        {
+            match six_through_brick(tri, vis, brick, (b, v, i), &geo, (&mut t, te), n) {
+                Some(next) => {
+                    v = next;
+                    continue;
+                }
+                None => return,
+            }
+        }
         let mut cnt = 0;
         let mut ended = false;
         buf.clear();
@@ -524,7 +559,7 @@ fn take<V: Visitor>(
     n: &mut CastCounters,
 ) -> bool {
     if V::PER_VOXEL {
-        if reads && vis.voxel(brick, voxel.0, voxel.1) {
+        if reads && vis.voxel(brick, voxel.1, || voxel.0) {
             n.visited += cnt as u64 + 1;
             return true;
         }
@@ -563,6 +598,13 @@ const MASK_STEPS: [i64; 8] = [0, 1, 1, 2, 1, 2, 2, 3];
 struct BrickGeometry {
     /// Change of the in-brick index `lx + 8 ly + 64 lz`.
     local_offset: [isize; 8],
+    /// The same per local axis (a one-axis move).
+    axis_offset: [isize; 3],
+    /// The world step of each local axis.
+    dir: [IVec3; 3],
+    /// The in-brick voxel a probe of 0 stands for: per world axis, 0 where
+    /// the ray moves up it, 7 where it moves down.
+    corner: IVec3,
 }
 
 impl BrickGeometry {
@@ -573,8 +615,83 @@ impl BrickGeometry {
             local_offset: std::array::from_fn(|m| {
                 (0..3).filter(|j| m >> j & 1 == 1).map(|j| axis[j]).sum()
             }),
+            axis_offset: axis,
+            dir: f.world_steps(),
+            corner: f
+                .world_steps()
+                .iter()
+                .fold(IVec3::ZERO, |c, &e| c + e.min(IVec3::ZERO))
+                * -7,
         }
     }
+
+    /// The probe of voxel `v` (see [`six_through_brick`]): per local axis
+    /// `j`, in bits `4j..4j + 4`, how far `v` lies into its brick along
+    /// the ray's direction on that axis (0..=7).
+    #[inline(always)]
+    fn probe(&self, v: IVec3) -> u32 {
+        let d = (v & 7) - self.corner;
+        let [a, b, c] = self.dir.map(|e| d.dot(e) as u32);
+        a | b << 4 | c << 8
+    }
+
+    /// The world voxel of probe `p` in brick `b` (a field of 8: the voxel
+    /// just past the brick along that axis).
+    #[inline(always)]
+    fn voxel(&self, b: IVec3, p: u32) -> IVec3 {
+        let c = |j: u32| (p >> (4 * j) & 15) as i32;
+        b * 8 + self.corner + self.dir[0] * c(0) + self.dir[1] * c(1) + self.dir[2] * c(2)
+    }
+}
+
+/// Set in a probe's field once a move takes it past the brick's last
+/// voxel along that local axis.
+const PROBE_OUT: u32 = 0x888;
+
+/// The driver's brick loop for a ray stepping as the 6-ray (`tri`) through
+/// brick `b` of a per-voxel visitor that reads it, from voxel `v` (storage
+/// index `i`), `t` of the end's `te` tripod steps taken: the same voxels,
+/// visits and state as the general loop, on fewer live values. The world
+/// voxel is not tracked: a probe (per local axis, 4 bits counting the
+/// voxels crossed into the brick along the ray's direction, each move
+/// adding 1 to its axis's field) tells the brick's exit by one mask test,
+/// and gives the voxel where the visitor keeps one or the ray leaves.
+/// Returns the voxel the ray moves on to, `None` when it ends.
+#[inline(always)]
+fn six_through_brick<V: Visitor>(
+    tri: &mut TripodState<i64>,
+    vis: &mut V,
+    brick: V::Brick,
+    (b, v, mut i): (IVec3, IVec3, usize),
+    geo: &BrickGeometry,
+    (t, te): (&mut i64, i64),
+    n: &mut CastCounters,
+) -> Option<IVec3> {
+    let mut s = *tri;
+    let mut p = geo.probe(v);
+    let mut tt = *t;
+    let mut cnt = 0u64;
+    let next = loop {
+        if vis.voxel(brick, i, || geo.voxel(b, p)) {
+            cnt += 1;
+            break None;
+        }
+        cnt += 1;
+        if tt >= te {
+            break None;
+        }
+        let k = s.step();
+        tt += 1;
+        i = i.wrapping_add_signed(geo.axis_offset[k]);
+        p += 1 << (4 * k);
+        if p & PROBE_OUT != 0 {
+            break Some(geo.voxel(b, p));
+        }
+    };
+    *tri = s;
+    *t = tt;
+    n.visited += cnt;
+    next
 }
 
 /// Walks one Amanatides–Woo ray over `seg` into `vis` (6-connected steps in
@@ -657,8 +774,8 @@ pub(crate) fn visited_voxels(seg: &Segment, kind: RayKind, seed: u64) -> Vec<IVe
             false
         }
         const PER_VOXEL: bool = true;
-        fn voxel(&mut self, _: IVec3, v: IVec3, _: usize) -> bool {
-            self.seen.push(v);
+        fn voxel(&mut self, _: IVec3, _: usize, v: impl FnOnce() -> IVec3) -> bool {
+            self.seen.push(v());
             false
         }
     }
@@ -680,6 +797,51 @@ mod tests {
     use crate::line::adaptive::Core;
     use crate::line::segment::{Frame, Segment};
     use rand::{Rng, SeedableRng};
+
+    /// A probe names its voxel: for frames of every major axis and sign,
+    /// every voxel of a brick round-trips through its probe, and a move
+    /// along a local axis adds 1 to that axis's field, names the voxel one
+    /// world step on (past the brick's last voxel, the next brick's first,
+    /// its field at 8 and the exit bit set) and moves the storage index
+    /// by the axis's offset inside the brick.
+    #[test]
+    fn probes_name_their_voxels() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(77);
+        let mut orders = std::collections::HashSet::new();
+        for _ in 0..300 {
+            let p = |rng: &mut rand_chacha::ChaCha8Rng| -> [f64; 3] {
+                std::array::from_fn(|_| rng.random_range(-40.0..40.0))
+            };
+            let seg = Segment::from_f64(p(&mut rng), p(&mut rng)).unwrap();
+            let f = Frame::new(&seg);
+            orders.insert((f.perm, f.sign));
+            let geo = BrickGeometry::new(&f);
+            let steps = f.world_steps();
+            let b = IVec3::new(
+                rng.random_range(-3..3),
+                rng.random_range(-3..3),
+                rng.random_range(-3..3),
+            );
+            for l in 0..512 {
+                let v = b * 8 + IVec3::new(l & 7, l >> 3 & 7, l >> 6);
+                let pr = geo.probe(v);
+                assert_eq!(geo.voxel(b, pr), v);
+                assert_eq!(pr & PROBE_OUT, 0);
+                for (j, &step) in steps.iter().enumerate() {
+                    let q = pr + (1 << (4 * j));
+                    let w = v + step;
+                    assert_eq!(geo.voxel(b, q), w, "{f:?} {v} axis {j}");
+                    assert_eq!(q & PROBE_OUT != 0, w >> 3 != b);
+                    assert_eq!(geo.local_offset[1 << j], geo.axis_offset[j]);
+                    if w >> 3 == b {
+                        let moved = local_index(w) as isize - local_index(v) as isize;
+                        assert_eq!(moved, geo.axis_offset[j]);
+                    }
+                }
+            }
+        }
+        assert_eq!(orders.len(), 24, "every major axis with every sign");
+    }
 
     /// The lean adaptive stepper makes the adaptive core's moves, step for
     /// step, under random flag sequences (runs of flagged and unflagged
