@@ -485,9 +485,9 @@ impl VolumeBricks {
     /// The sample at storage index `i`.
     #[inline(always)]
     pub(crate) fn value_at(&self, i: usize) -> f32 {
-        // `float32` ahead of the match: a predictable branch where a
-        // jump table's indirect one cost an exact MIP frame 3–4% (a run
-        // reads one sample per voxel step).
+        // `float32` ahead of the match: a predictable branch where the
+        // jump table's indirect one cost an exact MIP frame 3–4% (the
+        // 6-ray's brick loop reads a sample every step).
         if let Store::F32(v) = &self.store {
             return v[i];
         }

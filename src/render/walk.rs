@@ -608,20 +608,20 @@ struct BrickGeometry {
 }
 
 impl BrickGeometry {
+    #[inline(always)]
     fn new(f: &Frame) -> Self {
         let axis: [isize; 3] =
             std::array::from_fn(|j| f.sign[j] as isize * [1isize, 8, 64][f.perm[j]]);
+        let dir = f.world_steps();
         BrickGeometry {
             local_offset: std::array::from_fn(|m| {
                 (0..3).filter(|j| m >> j & 1 == 1).map(|j| axis[j]).sum()
             }),
             axis_offset: axis,
-            dir: f.world_steps(),
-            corner: f
-                .world_steps()
-                .iter()
-                .fold(IVec3::ZERO, |c, &e| c + e.min(IVec3::ZERO))
-                * -7,
+            dir,
+            // The unit steps are along distinct axes: their sum's negative
+            // components are the axes the ray moves down.
+            corner: (dir[0] + dir[1] + dir[2]).min(IVec3::ZERO) * -7,
         }
     }
 
