@@ -416,11 +416,15 @@ impl Frame {
     }
 
     /// World unit step of each local axis.
+    #[inline]
     pub fn world_steps(&self) -> [IVec3; 3] {
+        // Compares, not `s[perm[k]] = …`: a run-time index into a vector
+        // is a checked branch and a round trip through memory, per ray.
         std::array::from_fn(|k| {
-            let mut s = IVec3::ZERO;
-            s[self.perm[k]] = self.sign[k] as i32;
-            s
+            let sign = self.sign[k] as i32;
+            IVec3::from_array(std::array::from_fn(|w| {
+                if self.perm[k] == w { sign } else { 0 }
+            }))
         })
     }
 

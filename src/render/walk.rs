@@ -432,7 +432,7 @@ pub(crate) fn walk_core<V: Visitor>(
 #[inline(always)]
 fn walk<S: Stepper, V: Visitor>(f: &Frame, mut s: S, vis: &mut V, n: &mut CastCounters) {
     let steps = f.mask_steps();
-    let geo = BrickGeometry::new(f);
+    let geo = BrickGeometry::new(f, &steps);
     let te = f.tripod_steps() as i64;
     let v0 = f.voxel_world([0; 3]);
     let local = |v: IVec3| -> [i64; 3] {
@@ -609,10 +609,12 @@ struct BrickGeometry {
 
 impl BrickGeometry {
     #[inline(always)]
-    fn new(f: &Frame) -> Self {
+    fn new(f: &Frame, steps: &[IVec3; 8]) -> Self {
         let axis: [isize; 3] =
             std::array::from_fn(|j| f.sign[j] as isize * [1isize, 8, 64][f.perm[j]]);
-        let dir = f.world_steps();
+        // The one-axis moves' steps (the frame's world steps, not
+        // recomputed: a cost per ray).
+        let dir = [steps[1], steps[2], steps[4]];
         BrickGeometry {
             local_offset: std::array::from_fn(|m| {
                 (0..3).filter(|j| m >> j & 1 == 1).map(|j| axis[j]).sum()
@@ -815,7 +817,7 @@ mod tests {
             let seg = Segment::from_f64(p(&mut rng), p(&mut rng)).unwrap();
             let f = Frame::new(&seg);
             orders.insert((f.perm, f.sign));
-            let geo = BrickGeometry::new(&f);
+            let geo = BrickGeometry::new(&f, &f.mask_steps());
             let steps = f.world_steps();
             let b = IVec3::new(
                 rng.random_range(-3..3),
