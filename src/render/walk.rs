@@ -674,12 +674,8 @@ fn six_through_brick<V: Visitor>(
     let mut tt = *t;
     let mut cnt = 0u64;
     let next = loop {
-        if vis.voxel(brick, i, || geo.voxel(b, p)) {
-            cnt += 1;
-            break None;
-        }
         cnt += 1;
-        if tt >= te {
+        if vis.voxel(brick, i, || geo.voxel(b, p)) || tt >= te {
             break None;
         }
         let k = s.step();
@@ -840,6 +836,42 @@ mod tests {
                         assert_eq!(moved, geo.axis_offset[j]);
                     }
                 }
+            }
+        }
+        assert_eq!(orders.len(), 24, "every major axis with every sign");
+    }
+
+    /// The frame's world steps and mask steps are its local unit moves as
+    /// [`Frame::voxel_world`] maps them (an independent path: it adds
+    /// `sign·c` along `perm`), for frames of every major axis and sign,
+    /// axis-parallel and diagonal ones (ties between axes) included.
+    #[test]
+    fn world_steps_are_the_frames_unit_moves() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(78);
+        let mut orders = std::collections::HashSet::new();
+        for _ in 0..600 {
+            // Integer endpoints in a small box: many ties and zero spans.
+            let p = |rng: &mut rand_chacha::ChaCha8Rng| -> [f64; 3] {
+                std::array::from_fn(|_| f64::from(rng.random_range(-3i32..=3)))
+            };
+            let (a, b) = (p(&mut rng), p(&mut rng));
+            let Ok(seg) = Segment::from_f64(a, b) else {
+                continue;
+            };
+            let f = Frame::new(&seg);
+            orders.insert((f.perm, f.sign));
+            let c = [2, -1, 3];
+            let at = f.voxel_world(c);
+            let w = f.world_steps();
+            let m = f.mask_steps();
+            for k in 0..3 {
+                let mut e = c;
+                e[k] += 1;
+                assert_eq!(f.voxel_world(e) - at, w[k], "{f:?} axis {k}");
+            }
+            for (mask, &step) in m.iter().enumerate() {
+                let e: [i64; 3] = std::array::from_fn(|k| c[k] + (mask >> k & 1) as i64);
+                assert_eq!(f.voxel_world(e) - at, step, "{f:?} mask {mask}");
             }
         }
         assert_eq!(orders.len(), 24, "every major axis with every sign");
